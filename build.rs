@@ -1,0 +1,234 @@
+//! Reads `modelDescription.xml` (the single source of truth for the FMU's variables), checks
+//! it, and generates `$OUT_DIR/model_description.rs`: the GUID, the model identifier, the
+//! capability flags, one enum variant per Real variable with its value reference, causality
+//! and start value, and the log categories. The FMI layer matches exhaustively on that enum,
+//! so a variable added to or removed from the XML without code is a build error.
+
+use std::collections::{BTreeMap, HashSet};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+const MODEL_IDENTIFIER: &str = "AemElectrolyser";
+
+fn main() {
+    let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR"));
+    let xml_path = manifest.join("modelDescription.xml");
+    println!("cargo:rerun-if-changed={}", xml_path.display());
+    println!("cargo:rerun-if-changed=build.rs");
+    let text = std::fs::read_to_string(&xml_path)
+        .unwrap_or_else(|e| panic!("cannot read {}: {e}", xml_path.display()));
+    let generated = match generate(&text) {
+        Ok(code) => code,
+        Err(msg) => panic!("modelDescription.xml: {msg}"),
+    };
+    let out = PathBuf::from(std::env::var("OUT_DIR").expect("OUT_DIR")).join("model_description.rs");
+    std::fs::write(&out, generated).unwrap_or_else(|e| panic!("cannot write {}: {e}", out.display()));
+}
+
+struct Variable {
+    name: String,
+    vr: u32,
+    causality: String,
+    unit: String,
+    start: Option<f64>,
+}
+
+fn generate(text: &str) -> Result<String, String> {
+    let doc = roxmltree::Document::parse(text).map_err(|e| format!("not well-formed XML: {e}"))?;
+    let root = doc.root_element();
+    if root.tag_name().name() != "fmiModelDescription" || root.attribute("fmiVersion") != Some("2.0") {
+        return Err("root must be <fmiModelDescription fmiVersion=\"2.0\">".into());
+    }
+    let guid = root.attribute("guid").ok_or("guid is missing")?;
+    let child = |name: &str| root.children().find(|n| n.has_tag_name(name));
+    let cs = child("CoSimulation").ok_or("no <CoSimulation> element")?;
+    if cs.attribute("modelIdentifier") != Some(MODEL_IDENTIFIER) {
+        return Err(format!("CoSimulation modelIdentifier must be {MODEL_IDENTIFIER}"));
+    }
+    if child("ModelExchange").is_some() {
+        return Err("this FMU implements co-simulation only; remove <ModelExchange>".into());
+    }
+    let flag = |name: &str| cs.attribute(name) == Some("true");
+
+    let units: HashSet<&str> = child("UnitDefinitions")
+        .map(|u| u.children().filter(|n| n.has_tag_name("Unit")).filter_map(|n| n.attribute("name")).collect())
+        .unwrap_or_default();
+    let categories: Vec<&str> = child("LogCategories")
+        .map(|c| c.children().filter(|n| n.has_tag_name("Category")).filter_map(|n| n.attribute("name")).collect())
+        .unwrap_or_default();
+
+    let mut variables = Vec::new();
+    let mut seen_vr = HashSet::new();
+    let mut seen_name = HashSet::new();
+    let vars = child("ModelVariables").ok_or("no <ModelVariables>")?;
+    for sv in vars.children().filter(|n| n.has_tag_name("ScalarVariable")) {
+        let name = sv.attribute("name").ok_or("a ScalarVariable has no name")?.to_string();
+        let vr: u32 = sv
+            .attribute("valueReference")
+            .and_then(|v| v.parse().ok())
+            .ok_or(format!("{name}: valueReference missing or not an unsigned integer"))?;
+        let real = sv
+            .children()
+            .find(|n| n.is_element())
+            .filter(|n| n.has_tag_name("Real"))
+            .ok_or(format!("{name}: only Real variables are implemented"))?;
+        let unit = real.attribute("unit").ok_or(format!("{name}: every variable must declare a unit"))?;
+        if !units.contains(unit) {
+            return Err(format!("{name}: unit {unit} is not in <UnitDefinitions>"));
+        }
+        let start = match real.attribute("start") {
+            Some(s) => Some(s.parse::<f64>().map_err(|_| format!("{name}: start {s} is not a number"))?),
+            None => None,
+        };
+        let causality = sv.attribute("causality").unwrap_or("local").to_string();
+        let variability = sv.attribute("variability").unwrap_or("continuous").to_string();
+        match causality.as_str() {
+            "input" | "parameter" if start.is_none() => return Err(format!("{name}: {causality} needs a start value")),
+            "output" if start.is_some() => return Err(format!("{name}: calculated output must not have a start")),
+            "input" | "parameter" | "output" => {}
+            other => return Err(format!("{name}: causality {other} is not implemented")),
+        }
+        if causality == "parameter" && variability != "fixed" {
+            return Err(format!("{name}: parameters are fixed (tunable parameters are not implemented)"));
+        }
+        if !seen_vr.insert(vr) {
+            return Err(format!("{name}: valueReference {vr} is used twice"));
+        }
+        if !seen_name.insert(name.clone()) {
+            return Err(format!("{name}: name used twice"));
+        }
+        variables.push(Variable { name, vr, causality, unit: unit.to_string(), start });
+    }
+
+    // ModelStructure: Outputs must list exactly the outputs, in order, by 1-based index.
+    let structure = child("ModelStructure").ok_or("no <ModelStructure>")?;
+    let outputs: Vec<usize> = variables
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.causality == "output")
+        .map(|(i, _)| i + 1)
+        .collect();
+    let listed = |section: &str| -> Vec<usize> {
+        structure
+            .children()
+            .find(|n| n.has_tag_name(section))
+            .map(|s| {
+                s.children()
+                    .filter(|n| n.has_tag_name("Unknown"))
+                    .filter_map(|n| n.attribute("index").and_then(|i| i.parse().ok()))
+                    .collect()
+            })
+            .unwrap_or_default()
+    };
+    if listed("Outputs") != outputs {
+        return Err(format!("<Outputs> must list indices {outputs:?}"));
+    }
+    if listed("InitialUnknowns") != outputs {
+        return Err(format!("<InitialUnknowns> must list indices {outputs:?}"));
+    }
+    for unknown in structure.descendants().filter(|n| n.has_tag_name("Unknown")) {
+        for dep in unknown.attribute("dependencies").unwrap_or("").split_whitespace() {
+            let idx: usize = dep.parse().map_err(|_| format!("dependency {dep} is not an index"))?;
+            let v = variables.get(idx.wrapping_sub(1)).ok_or(format!("dependency index {idx} out of range"))?;
+            if v.causality == "output" {
+                return Err(format!("dependency {idx} ({}) must be an input or parameter", v.name));
+            }
+        }
+    }
+
+    let mut code = String::new();
+    let w = &mut code;
+    writeln!(w, "// Generated by build.rs from modelDescription.xml. Do not edit.").unwrap();
+    writeln!(w, "/// GUID of the model description; fmi2Instantiate checks it.").unwrap();
+    writeln!(w, "pub const GUID: &str = {guid:?};").unwrap();
+    writeln!(w, "/// Model identifier: the binary's name inside the FMU.").unwrap();
+    writeln!(w, "pub const MODEL_IDENTIFIER: &str = {MODEL_IDENTIFIER:?};").unwrap();
+    for (konst, attr) in [
+        ("CAN_HANDLE_VARIABLE_COMMUNICATION_STEP_SIZE", "canHandleVariableCommunicationStepSize"),
+        ("CAN_INTERPOLATE_INPUTS", "canInterpolateInputs"),
+        ("CAN_GET_AND_SET_FMU_STATE", "canGetAndSetFMUstate"),
+        ("CAN_SERIALIZE_FMU_STATE", "canSerializeFMUstate"),
+        ("PROVIDES_DIRECTIONAL_DERIVATIVE", "providesDirectionalDerivative"),
+        ("CAN_RUN_ASYNCHRONOUSLY", "canRunAsynchronuously"),
+    ] {
+        writeln!(w, "/// `{attr}` of the model description.").unwrap();
+        writeln!(w, "pub const {konst}: bool = {};", flag(attr)).unwrap();
+    }
+    writeln!(w, "/// Log categories declared in the model description.").unwrap();
+    writeln!(w, "pub const LOG_CATEGORIES: &[&str] = &{categories:?};").unwrap();
+
+    writeln!(w, "/// Causality of a variable.").unwrap();
+    writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]").unwrap();
+    writeln!(w, "pub enum Causality {{ Input, Output, Parameter }}").unwrap();
+    writeln!(w, "/// Every Real variable of the model description.").unwrap();
+    writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]").unwrap();
+    writeln!(w, "pub enum RealVariable {{").unwrap();
+    for v in &variables {
+        writeln!(w, "    /// `{}` [{}], value reference {}.", v.name, v.unit, v.vr).unwrap();
+        writeln!(w, "    {},", pascal(&v.name)).unwrap();
+    }
+    writeln!(w, "}}").unwrap();
+    writeln!(w, "impl RealVariable {{").unwrap();
+    writeln!(w, "    /// All Real variables in model-description order.").unwrap();
+    let all: Vec<String> = variables.iter().map(|v| format!("RealVariable::{}", pascal(&v.name))).collect();
+    writeln!(w, "    pub const ALL: [RealVariable; {}] = [{}];", all.len(), all.join(", ")).unwrap();
+    writeln!(w, "    /// The variable with this value reference.").unwrap();
+    writeln!(w, "    pub const fn from_value_reference(vr: u32) -> Option<Self> {{ match vr {{").unwrap();
+    for v in &variables {
+        writeln!(w, "        {} => Some(RealVariable::{}),", v.vr, pascal(&v.name)).unwrap();
+    }
+    writeln!(w, "        _ => None, }} }}").unwrap();
+    let accessor = |w: &mut String, fname: &str, ty: &str, f: &dyn Fn(&Variable) -> String| {
+        writeln!(w, "    pub const fn {fname}(self) -> {ty} {{ match self {{").unwrap();
+        for v in &variables {
+            writeln!(w, "        RealVariable::{} => {},", pascal(&v.name), f(v)).unwrap();
+        }
+        writeln!(w, "    }} }}").unwrap();
+    };
+    writeln!(w, "    /// Value reference.").unwrap();
+    accessor(w, "value_reference", "u32", &|v| v.vr.to_string());
+    writeln!(w, "    /// Name in the model description.").unwrap();
+    accessor(w, "name", "&'static str", &|v| format!("{:?}", v.name));
+    writeln!(w, "    /// Unit in the model description.").unwrap();
+    accessor(w, "unit", "&'static str", &|v| format!("{:?}", v.unit));
+    writeln!(w, "    /// Causality.").unwrap();
+    accessor(w, "causality", "Causality", &|v| {
+        let mut c = pascal(&v.causality);
+        c.insert_str(0, "Causality::");
+        c
+    });
+    writeln!(w, "    /// Start value (inputs and parameters).").unwrap();
+    accessor(w, "start", "Option<f64>", &|v| match v.start {
+        Some(s) => format!("Some({s:?})"),
+        None => "None".into(),
+    });
+    writeln!(w, "}}").unwrap();
+    writeln!(w, "/// Start values of inputs and parameters, by SCREAMING_SNAKE name.").unwrap();
+    writeln!(w, "pub mod start {{").unwrap();
+    let starts: BTreeMap<String, f64> =
+        variables.iter().filter_map(|v| v.start.map(|s| (screaming(&v.name), s))).collect();
+    for (name, value) in starts {
+        writeln!(w, "    #[allow(missing_docs)] pub const {name}: f64 = {value:?};").unwrap();
+    }
+    writeln!(w, "}}").unwrap();
+    Ok(code)
+}
+
+fn pascal(name: &str) -> String {
+    let mut chars = name.chars();
+    match chars.next() {
+        Some(c) => c.to_ascii_uppercase().to_string() + chars.as_str(),
+        None => String::new(),
+    }
+}
+
+fn screaming(name: &str) -> String {
+    let mut out = String::new();
+    for (i, c) in name.chars().enumerate() {
+        if c.is_ascii_uppercase() && i > 0 {
+            out.push('_');
+        }
+        out.push(c.to_ascii_uppercase());
+    }
+    out
+}

@@ -1,0 +1,381 @@
+//! Stack-current dynamics, integrated exactly.
+//!
+//! Linear part (paper eq. 1), setpoint u [%] to unlimited current I_tf [A]:
+//!   G(s) = K(τz s + 1) / ((τp1 s + 1)(τp2 s + 1))
+//!        = K·a/(τp1 s + 1) + K·b/(τp2 s + 1),  a = (τz − τp1)/(τp2 − τp1),  b = 1 − a.
+//! Modal states z1, z2 [A]: τpi·dzi/dt = K·u − zi, and I_tf = a·z1 + b·z2.
+//!
+//! Rising-rate limit r [A/s] on the output, none on falling current:
+//!   I(t) = min( I(t0) + r(t − t0),  min_{s∈[t0,t]} I_tf(s) + r(t − s) ).
+//! With h(s) = I_tf(s) − r·s this is I(t) = r·t + min(I(t0) − r·t0, min_{[t0,t]} h): the
+//! current is r·t plus the running minimum of h. With u constant over a step, h is a constant
+//! plus two exponentials minus a line, so h has at most two stationary points, found by
+//! splitting the step where h'' and h' change sign. On each monotone piece the running
+//! minimum either stays put (current ramps at r) or follows h (current tracks I_tf); the
+//! instant where it switches is located by a bracketed root search. Everything else is
+//! closed form, so results at common time points do not depend on the step size.
+
+use super::parameters::Parameters;
+use super::roots::monotone_root;
+
+/// Dynamic state of the current: modal states and the limited current, all [A].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CurrentState {
+    /// Fast modal state z1 (pole τp1) [A].
+    pub z1: f64,
+    /// Slow modal state z2 (pole τp2) [A].
+    pub z2: f64,
+    /// Rate-limited stack current I ≤ I_tf [A].
+    pub current: f64,
+}
+
+/// Time integrals of the current over one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CurrentIntegrals {
+    /// ∫ I dt [A·s].
+    pub charge: f64,
+    /// ∫ I² dt [A²·s].
+    pub current_squared: f64,
+    /// Time during which the rate limit was binding [s].
+    pub ramp_time: f64,
+}
+
+/// Constants of the current dynamics, derived once from the parameters.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CurrentDynamics {
+    gain: f64,
+    lambda1: f64,
+    lambda2: f64,
+    a: f64,
+    b: f64,
+    ramp: f64,
+}
+
+/// Step-size dependent factors, reused while the master keeps its step size.
+#[derive(Clone, Copy, Debug)]
+pub struct StepFactors {
+    h: f64,
+    /// e^(−λi h).
+    e1: f64,
+    e2: f64,
+    /// Exponential integrals over [0, h] (see [`ExpIntegrals`]).
+    ints: ExpIntegrals,
+}
+
+impl Default for StepFactors {
+    fn default() -> Self {
+        // NaN never compares equal, so the first step always computes its factors.
+        StepFactors { h: f64::NAN, e1: 1.0, e2: 1.0, ints: ExpIntegrals::default() }
+    }
+}
+
+/// ∫₀ᴸ of e^(−λ1 s), e^(−λ2 s), e^(−2λ1 s), e^(−(λ1+λ2) s), e^(−2λ2 s) ds [s].
+#[derive(Clone, Copy, Debug, Default)]
+struct ExpIntegrals {
+    c1: f64,
+    c2: f64,
+    c11: f64,
+    c12: f64,
+    c22: f64,
+}
+
+impl CurrentDynamics {
+    /// Derives the modal constants; `params` must have passed [`Parameters::validate`].
+    pub fn new(params: &Parameters) -> Self {
+        let (t1, t2, tz) = (params.tau_pole1, params.tau_pole2, params.tau_zero);
+        let a = (tz - t1) / (t2 - t1);
+        CurrentDynamics {
+            gain: params.gain,
+            lambda1: 1.0 / t1,
+            lambda2: 1.0 / t2,
+            a,
+            b: (t2 - tz) / (t2 - t1),
+            ramp: params.ramp_up_limit,
+        }
+    }
+
+    /// Steady state at a (clamped) setpoint [%]: z1 = z2 = I = K·u.
+    pub fn steady_state(&self, setpoint: f64) -> CurrentState {
+        let y = self.gain * setpoint;
+        CurrentState { z1: y, z2: y, current: y }
+    }
+
+    /// Unlimited transfer-function output I_tf = a·z1 + b·z2 [A].
+    pub fn unlimited_current(&self, state: &CurrentState) -> f64 {
+        self.a * state.z1 + self.b * state.z2
+    }
+
+    fn exp_integrals(&self, d1: f64, d2: f64) -> ExpIntegrals {
+        // d = 1 − e^(−λL) from expm1, so short steps keep full precision.
+        let (l1, l2) = (self.lambda1, self.lambda2);
+        ExpIntegrals {
+            c1: d1 / l1,
+            c2: d2 / l2,
+            c11: d1 * (2.0 - d1) / (2.0 * l1),
+            c12: (d1 + d2 - d1 * d2) / (l1 + l2),
+            c22: d2 * (2.0 - d2) / (2.0 * l2),
+        }
+    }
+
+    fn integrals_over(&self, length: f64) -> (f64, f64, ExpIntegrals) {
+        let d1 = -(-self.lambda1 * length).exp_m1();
+        let d2 = -(-self.lambda2 * length).exp_m1();
+        (1.0 - d1, 1.0 - d2, self.exp_integrals(d1, d2))
+    }
+
+    /// Advances `state` by `h` > 0 seconds with the setpoint `u` [%] held constant,
+    /// returning the exact integrals of the current over the step.
+    pub fn advance(
+        &self,
+        state: &mut CurrentState,
+        u: f64,
+        h: f64,
+        factors: &mut StepFactors,
+    ) -> CurrentIntegrals {
+        if factors.h != h {
+            let (e1, e2, ints) = self.integrals_over(h);
+            *factors = StepFactors { h, e1, e2, ints };
+        }
+        let y = self.gain * u;
+        // I_tf(τ) = y + A e^(−λ1 τ) + B e^(−λ2 τ) over the step.
+        let amp_a = self.a * (state.z1 - y);
+        let amp_b = self.b * (state.z2 - y);
+        let tf0 = y + amp_a + amp_b;
+        let tracking = tf0 - state.current <= 1e-12 * tf0.abs().max(1.0);
+        // Largest possible slope of I_tf on the step; at most r means the limit never binds.
+        let max_rise = (-self.lambda1 * amp_a).max(0.0) + (-self.lambda2 * amp_b).max(0.0);
+
+        let (integrals, limited_end) = if tracking && max_rise <= self.ramp {
+            let ints = &factors.ints;
+            let lin = amp_a * ints.c1 + amp_b * ints.c2;
+            let integrals = CurrentIntegrals {
+                charge: y * h + lin,
+                current_squared: y * y * h
+                    + 2.0 * y * lin
+                    + amp_a * amp_a * ints.c11
+                    + 2.0 * amp_a * amp_b * ints.c12
+                    + amp_b * amp_b * ints.c22,
+                ramp_time: 0.0,
+            };
+            (integrals, f64::INFINITY)
+        } else {
+            let start = if tracking { tf0 } else { state.current.min(tf0) };
+            self.limited_step(y, amp_a, amp_b, start, h)
+        };
+
+        state.z1 = y + (state.z1 - y) * factors.e1;
+        state.z2 = y + (state.z2 - y) * factors.e2;
+        // I(h) = r·h + M(h) from the running minimum, never above I_tf(h).
+        state.current = limited_end.min(self.unlimited_current(state));
+        integrals
+    }
+
+    /// The general step: split [0, h] where h(τ) = I_tf(τ) − rτ is monotone, follow its
+    /// running minimum, and integrate the ramp and tracking segments in closed form.
+    fn limited_step(&self, y: f64, amp_a: f64, amp_b: f64, start: f64, h: f64) -> (CurrentIntegrals, f64) {
+        let curve = Curve { y, amp_a, amp_b, l1: self.lambda1, l2: self.lambda2, r: self.ramp };
+        let pieces = curve.monotone_pieces(h);
+        // M: running minimum of h(τ) = I_tf(τ) − rτ; the current is I(τ) = M + rτ.
+        let mut m = start;
+        let mut out = CurrentIntegrals::default();
+        for window in pieces.windows(2) {
+            let (p, q) = (window[0], window[1]);
+            if q <= p {
+                continue;
+            }
+            let (hp, hq) = (curve.h(p), curve.h(q));
+            if hq >= hp || hq >= m {
+                // h rises (or stays above M): the running minimum holds, the current ramps.
+                self.add_ramp(&mut out, m, p, q);
+            } else if hp <= m {
+                self.add_track(&mut out, &curve, p, q);
+                m = hq;
+            } else {
+                let crossing = monotone_root(|t| curve.h_and_slope(t, m), p, q, hp - m, hq - m);
+                self.add_ramp(&mut out, m, p, crossing);
+                self.add_track(&mut out, &curve, crossing, q);
+                m = hq;
+            }
+        }
+        (out, m + self.ramp * h)
+    }
+
+    fn add_ramp(&self, out: &mut CurrentIntegrals, m: f64, s0: f64, s1: f64) {
+        let length = s1 - s0;
+        let i0 = m + self.ramp * s0;
+        let r = self.ramp;
+        out.charge += i0 * length + 0.5 * r * length * length;
+        out.current_squared += i0 * i0 * length + i0 * r * length * length + r * r * length.powi(3) / 3.0;
+        out.ramp_time += length;
+    }
+
+    fn add_track(&self, out: &mut CurrentIntegrals, curve: &Curve, s0: f64, s1: f64) {
+        let (_, _, ints) = self.integrals_over(s1 - s0);
+        let a0 = curve.amp_a * (-curve.l1 * s0).exp();
+        let b0 = curve.amp_b * (-curve.l2 * s0).exp();
+        let y = curve.y;
+        let length = s1 - s0;
+        let lin = a0 * ints.c1 + b0 * ints.c2;
+        out.charge += y * length + lin;
+        out.current_squared +=
+            y * y * length + 2.0 * y * lin + a0 * a0 * ints.c11 + 2.0 * a0 * b0 * ints.c12 + b0 * b0 * ints.c22;
+    }
+}
+
+/// h(τ) = I_tf(τ) − rτ = y + A e^(−λ1 τ) + B e^(−λ2 τ) − rτ over one step [A].
+struct Curve {
+    y: f64,
+    amp_a: f64,
+    amp_b: f64,
+    l1: f64,
+    l2: f64,
+    r: f64,
+}
+
+impl Curve {
+    fn exps(&self, t: f64) -> (f64, f64) {
+        (self.amp_a * (-self.l1 * t).exp(), self.amp_b * (-self.l2 * t).exp())
+    }
+
+    fn h(&self, t: f64) -> f64 {
+        let (ea, eb) = self.exps(t);
+        self.y + ea + eb - self.r * t
+    }
+
+    /// (h(τ) − level, h'(τ)).
+    fn h_and_slope(&self, t: f64, level: f64) -> (f64, f64) {
+        let (ea, eb) = self.exps(t);
+        (self.y + ea + eb - self.r * t - level, -self.l1 * ea - self.l2 * eb - self.r)
+    }
+
+    /// (h'(τ), h''(τ)).
+    fn slope_and_curvature(&self, t: f64) -> (f64, f64) {
+        let (ea, eb) = self.exps(t);
+        (-self.l1 * ea - self.l2 * eb - self.r, self.l1 * self.l1 * ea + self.l2 * self.l2 * eb)
+    }
+
+    /// Break points 0 = p0 < … < pk = len such that h is monotone on each piece (k ≤ 3).
+    fn monotone_pieces(&self, len: f64) -> Vec<f64> {
+        let mut points = Vec::with_capacity(5);
+        points.push(0.0);
+        // h'' = λ1² A e^(−λ1 τ) + λ2² B e^(−λ2 τ) vanishes at most once, where A·B < 0.
+        if self.amp_a * self.amp_b < 0.0 {
+            let ratio = -(self.l2 * self.l2 * self.amp_b) / (self.l1 * self.l1 * self.amp_a);
+            let t = ratio.ln() / (self.l2 - self.l1);
+            if t > 0.0 && t < len {
+                points.push(t);
+            }
+        }
+        points.push(len);
+        // h' is monotone between those points: at most one zero on each.
+        let mut pieces = Vec::with_capacity(5);
+        pieces.push(0.0);
+        for w in points.windows(2) {
+            let (p, q) = (w[0], w[1]);
+            let (sp, _) = self.slope_and_curvature(p);
+            let (sq, _) = self.slope_and_curvature(q);
+            if (sp < 0.0 && sq > 0.0) || (sp > 0.0 && sq < 0.0) {
+                pieces.push(monotone_root(|t| self.slope_and_curvature(t), p, q, sp, sq));
+            }
+            pieces.push(q);
+        }
+        pieces
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn paper() -> (Parameters, CurrentDynamics) {
+        let p = Parameters::default();
+        (p, CurrentDynamics::new(&p))
+    }
+
+    /// Closed-form unlimited response to a setpoint step u0 → u1 from steady state:
+    /// I_tf(t) = K u1 + K(u0 − u1)(a e^(−t/τp1) + b e^(−t/τp2)).
+    fn step_response(p: &Parameters, u0: f64, u1: f64, t: f64) -> f64 {
+        let a = (p.tau_zero - p.tau_pole1) / (p.tau_pole2 - p.tau_pole1);
+        let b = 1.0 - a;
+        p.gain * u1
+            + p.gain * (u0 - u1) * (a * (-t / p.tau_pole1).exp() + b * (-t / p.tau_pole2).exp())
+    }
+
+    fn simulate(d: &CurrentDynamics, u0: f64, u1: f64, h: f64, t_end: f64) -> (CurrentState, f64) {
+        let mut s = d.steady_state(u0);
+        let mut f = StepFactors::default();
+        let n = (t_end / h).round() as usize;
+        let mut charge = 0.0;
+        for _ in 0..n {
+            charge += d.advance(&mut s, u1, h, &mut f).charge;
+        }
+        (s, charge)
+    }
+
+    #[test]
+    fn negative_step_follows_two_exponentials() {
+        let (p, d) = paper();
+        for &t in &[0.5, 1.0, 7.0, 60.0, 300.0, 1000.0] {
+            let (s, _) = simulate(&d, 100.0, 70.0, 0.5, t);
+            let want = step_response(&p, 100.0, 70.0, t);
+            assert!((s.current - want).abs() < 1e-9, "t={t}: {} vs {want}", s.current);
+        }
+    }
+
+    #[test]
+    fn positive_step_ramps_then_tracks() {
+        let (p, d) = paper();
+        // Unlimited response rises faster than r at first: the current ramps from K·u0 at r
+        // until it meets I_tf; the meeting instant solves K u0 + r t = I_tf(t).
+        let (u0, u1) = (60.0, 100.0);
+        let f = |t: f64| step_response(&p, u0, u1, t) - (p.gain * u0 + p.ramp_up_limit * t);
+        let (mut lo, mut hi) = (1.0, 5000.0);
+        assert!(f(lo) > 0.0 && f(hi) < 0.0);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if f(mid) > 0.0 { lo = mid } else { hi = mid }
+        }
+        let meet = lo;
+        for &t in &[1.0, 10.0, meet - 1.0, meet + 1.0, meet + 200.0, 2000.0] {
+            let t = (t * 4.0_f64).round() / 4.0;
+            let (s, _) = simulate(&d, u0, u1, 0.25, t);
+            let want = if t < meet { p.gain * u0 + p.ramp_up_limit * t } else { step_response(&p, u0, u1, t) };
+            assert!((s.current - want).abs() < 1e-9, "t={t}: {} vs {want}", s.current);
+        }
+    }
+
+    #[test]
+    fn step_size_does_not_change_results() {
+        let (_, d) = paper();
+        let schedule = [(100.0, 120.0), (60.0, 300.0), (85.0, 60.0), (65.0, 420.0), (100.0, 600.0)];
+        let run = |h: f64| {
+            let mut s = d.steady_state(80.0);
+            let mut f = StepFactors::default();
+            let mut charge = 0.0;
+            let mut out = Vec::new();
+            for &(u, dur) in &schedule {
+                for _ in 0..(dur / h).round() as usize {
+                    charge += d.advance(&mut s, u, h, &mut f).charge;
+                }
+                out.push((s.current, charge));
+            }
+            out
+        };
+        let reference = run(60.0);
+        for h in [0.01, 0.1, 1.0, 5.0, 20.0] {
+            for (i, (got, want)) in run(h).iter().zip(&reference).enumerate() {
+                assert!((got.0 - want.0).abs() < 1e-9, "h={h} segment {i}: {} vs {}", got.0, want.0);
+                assert!((got.1 - want.1).abs() < 1e-6 * want.1, "h={h} charge {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn charge_of_a_ramp_is_exact() {
+        let (p, d) = paper();
+        // 60 → 100 %: the first 10 s are a pure ramp from 32.04 A at 0.22 A/s.
+        let (_, q) = simulate(&d, 60.0, 100.0, 10.0, 10.0);
+        let want = p.gain * 60.0 * 10.0 + 0.5 * p.ramp_up_limit * 100.0;
+        assert!((q - want).abs() < 1e-9, "{q} vs {want}");
+    }
+}

@@ -1,0 +1,14 @@
+//! The electrolyser model in plain Rust, with no knowledge of FMI.
+//!
+//! - [`parameters`]: Table I of the paper and its validation.
+//! - [`dynamics`]: setpoint → stack current, G(s) with a rising-rate limit, exact steps.
+//! - [`module`]: one running module: polarisation curve, power, hydrogen, integrals.
+
+pub mod dynamics;
+pub mod module;
+pub mod parameters;
+mod roots;
+
+pub use dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
+pub use module::{Module, ModuleState, StepError};
+pub use parameters::{ParameterError, Parameters};

@@ -1,0 +1,205 @@
+//! One running AEM module: current dynamics, polarisation curve, power and hydrogen.
+//!
+//! - Voltage (linear polarisation curve, 55 °C / 29 bar): V = V0 + R·I [V]
+//! - DC power: P = V·I = V0·I + R·I² [W]
+//! - Hydrogen flow (Faraday): F = c·I [Nl/h]
+//! - Energy since the start: E = ∫P dt = V0·∫I dt + R·∫I² dt [J]
+//! - Hydrogen since the start: N = c·∫I dt / 3600 [Nl]
+//!
+//! The integrals come from the exact current integrals of [`CurrentDynamics::advance`].
+
+use std::fmt;
+
+use super::dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
+use super::parameters::{ParameterError, Parameters};
+
+const SECONDS_PER_HOUR: f64 = 3600.0;
+
+/// Everything that evolves in time; with the parameters it fully determines the module.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModuleState {
+    /// Model time [s].
+    pub time: f64,
+    /// Current dynamics state [A].
+    pub current: CurrentState,
+    /// DC energy drawn since the start [J].
+    pub energy: f64,
+    /// Hydrogen produced since the start [Nl].
+    pub h2_produced: f64,
+}
+
+/// A request the model refuses; the module is left unchanged.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StepError {
+    /// The setpoint [%] is NaN or infinite.
+    NonFiniteSetpoint(f64),
+    /// The step size [s] is not a finite positive number.
+    InvalidStepSize(f64),
+}
+
+impl fmt::Display for StepError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            StepError::NonFiniteSetpoint(v) => write!(f, "setpoint = {v} % is not a finite number"),
+            StepError::InvalidStepSize(h) => write!(f, "step size = {h} s must be finite and > 0"),
+        }
+    }
+}
+
+impl std::error::Error for StepError {}
+
+/// What one step did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepReport {
+    /// Setpoint actually applied after clamping to the operating window [%].
+    pub applied_setpoint: f64,
+    /// Time within the step during which the rate limit was binding [s].
+    pub ramp_time: f64,
+}
+
+/// One running electrolyser module.
+#[derive(Clone, Debug)]
+pub struct Module {
+    params: Parameters,
+    dynamics: CurrentDynamics,
+    state: ModuleState,
+    factors: StepFactors,
+}
+
+impl Module {
+    /// A module in steady state at `setpoint` [%] (clamped to the operating window) at t = 0.
+    pub fn new(params: Parameters, setpoint: f64) -> Result<Self, ParameterError> {
+        params.validate()?;
+        if !setpoint.is_finite() {
+            return Err(ParameterError {
+                name: "setpoint",
+                value: setpoint,
+                requirement: "must be a finite number".into(),
+            });
+        }
+        let dynamics = CurrentDynamics::new(&params);
+        let current = dynamics.steady_state(params.clamp_setpoint(setpoint));
+        Ok(Module {
+            params,
+            dynamics,
+            state: ModuleState { time: 0.0, current, energy: 0.0, h2_produced: 0.0 },
+            factors: StepFactors::default(),
+        })
+    }
+
+    /// Advances by `h` seconds with `setpoint` [%] held over the step (clamped to the window).
+    pub fn step(&mut self, setpoint: f64, h: f64) -> Result<StepReport, StepError> {
+        if !setpoint.is_finite() {
+            return Err(StepError::NonFiniteSetpoint(setpoint));
+        }
+        if !(h.is_finite() && h > 0.0) {
+            return Err(StepError::InvalidStepSize(h));
+        }
+        let u = self.params.clamp_setpoint(setpoint);
+        let CurrentIntegrals { charge, current_squared, ramp_time } =
+            self.dynamics.advance(&mut self.state.current, u, h, &mut self.factors);
+        let p = &self.params;
+        self.state.energy += p.voltage_intercept * charge + p.ohmic_resistance * current_squared;
+        self.state.h2_produced += p.h2_coefficient * charge / SECONDS_PER_HOUR;
+        self.state.time += h;
+        Ok(StepReport { applied_setpoint: u, ramp_time })
+    }
+
+    /// The parameters.
+    pub fn parameters(&self) -> &Parameters {
+        &self.params
+    }
+
+    /// The time-varying state (for saving and restoring).
+    pub fn state(&self) -> &ModuleState {
+        &self.state
+    }
+
+    /// Replaces the time-varying state, e.g. with one saved earlier by [`Module::state`].
+    pub fn restore(&mut self, state: ModuleState) {
+        self.state = state;
+    }
+
+    /// Model time [s].
+    pub fn time(&self) -> f64 {
+        self.state.time
+    }
+
+    /// Stack current I [A].
+    pub fn current(&self) -> f64 {
+        self.state.current.current
+    }
+
+    /// Stack voltage V = V0 + R·I [V].
+    pub fn voltage(&self) -> f64 {
+        self.params.voltage_intercept + self.params.ohmic_resistance * self.current()
+    }
+
+    /// DC power P = V·I [W].
+    pub fn power(&self) -> f64 {
+        self.voltage() * self.current()
+    }
+
+    /// Hydrogen flow c·I [Nl/h].
+    pub fn h2_flow(&self) -> f64 {
+        self.params.h2_coefficient * self.current()
+    }
+
+    /// DC energy since the start [J].
+    pub fn energy(&self) -> f64 {
+        self.state.energy
+    }
+
+    /// Hydrogen produced since the start [Nl].
+    pub fn h2_produced(&self) -> f64 {
+        self.state.h2_produced
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sanity_figures_at_full_load() {
+        let m = Module::new(Parameters::default(), 100.0).unwrap();
+        assert!((m.current() - 53.4).abs() < 1e-12);
+        assert!((m.voltage() - (35.75 + 0.1529 * 53.4)).abs() < 1e-12);
+        assert!((m.voltage() - 43.92).abs() < 0.01);
+        assert!((m.power() - 2345.0).abs() < 1.0);
+        assert!((m.h2_flow() - 513.6).abs() < 0.1);
+    }
+
+    #[test]
+    fn steady_energy_and_hydrogen_are_linear_in_time() {
+        let mut m = Module::new(Parameters::default(), 80.0).unwrap();
+        for _ in 0..3600 {
+            m.step(80.0, 1.0).unwrap();
+        }
+        let i = 0.534 * 80.0;
+        let p = (35.75 + 0.1529 * i) * i;
+        assert!((m.energy() - p * 3600.0).abs() < 1e-6 * p * 3600.0);
+        assert!((m.h2_produced() - 9.6174 * i).abs() < 1e-9 * 9.6174 * i);
+    }
+
+    #[test]
+    fn setpoint_outside_the_window_is_clamped() {
+        let mut m = Module::new(Parameters::default(), 20.0).unwrap();
+        assert!((m.current() - 0.534 * 60.0).abs() < 1e-12);
+        let r = m.step(150.0, 1.0).unwrap();
+        assert_eq!(r.applied_setpoint, 100.0);
+    }
+
+    #[test]
+    fn bad_requests_leave_the_module_unchanged() {
+        let mut m = Module::new(Parameters::default(), 70.0).unwrap();
+        m.step(90.0, 3.0).unwrap();
+        let before = *m.state();
+        assert!(matches!(m.step(f64::NAN, 1.0), Err(StepError::NonFiniteSetpoint(_))));
+        assert!(m.step(f64::INFINITY, 1.0).is_err());
+        assert!(m.step(80.0, -1.0).is_err());
+        assert!(m.step(80.0, 0.0).is_err());
+        assert!(m.step(80.0, f64::NAN).is_err());
+        assert_eq!(*m.state(), before);
+    }
+}

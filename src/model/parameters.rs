@@ -1,0 +1,194 @@
+//! Parameters of one AEM electrolyser module (the paper's Table I) and their validation.
+
+use std::fmt;
+
+use crate::model_description::start;
+
+/// Parameters of one module, in the units of the model description.
+///
+/// Defaults are the start values of `modelDescription.xml` (the paper's Table I,
+/// nominal 55 °C and 29 bar); see [`Parameters::default`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Parameters {
+    /// K: stack current per % of hydrogen-production setpoint [A/%].
+    pub gain: f64,
+    /// τz: time constant of the zero [s].
+    pub tau_zero: f64,
+    /// τp1: first pole time constant [s].
+    pub tau_pole1: f64,
+    /// τp2: second pole time constant [s].
+    pub tau_pole2: f64,
+    /// r: largest rate of rise of the stack current [A/s]; falling current is not limited.
+    pub ramp_up_limit: f64,
+    /// V0: polarisation-curve intercept, V = V0 + R·I [V].
+    pub voltage_intercept: f64,
+    /// R: ohmic resistance of the polarisation curve [Ω].
+    pub ohmic_resistance: f64,
+    /// c: hydrogen production per ampere, flow = c·I [Nl/(h·A)].
+    pub h2_coefficient: f64,
+    /// Nominal stack current [A] (the vendor's rating; informational for one module).
+    pub nominal_current: f64,
+    /// Lowest allowed setpoint while running [%].
+    pub min_setpoint: f64,
+    /// Highest allowed setpoint [%].
+    pub max_setpoint: f64,
+}
+
+/// Smallest relative separation of the two pole time constants that the modal
+/// (partial-fraction) solution accepts; closer poles lose more than 1e-10 relative accuracy.
+pub const MIN_RELATIVE_POLE_SEPARATION: f64 = 1e-6;
+
+/// A parameter set that cannot describe a module; the message names the value.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParameterError {
+    /// Name of the offending parameter as in the model description.
+    pub name: &'static str,
+    /// Its value.
+    pub value: f64,
+    /// What is required of it.
+    pub requirement: String,
+}
+
+impl fmt::Display for ParameterError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "parameter {} = {} is invalid: {}", self.name, self.value, self.requirement)
+    }
+}
+
+impl std::error::Error for ParameterError {}
+
+impl Default for Parameters {
+    /// The paper's Table I: the start values of `modelDescription.xml`.
+    fn default() -> Self {
+        Parameters {
+            gain: start::GAIN,
+            tau_zero: start::TAU_ZERO,
+            tau_pole1: start::TAU_POLE1,
+            tau_pole2: start::TAU_POLE2,
+            ramp_up_limit: start::RAMP_UP_LIMIT,
+            voltage_intercept: start::VOLTAGE_INTERCEPT,
+            ohmic_resistance: start::OHMIC_RESISTANCE,
+            h2_coefficient: start::H2_COEFFICIENT,
+            nominal_current: start::NOMINAL_CURRENT,
+            min_setpoint: start::MIN_SETPOINT,
+            max_setpoint: start::MAX_SETPOINT,
+        }
+    }
+}
+
+impl Parameters {
+    /// Checks that the set describes a module the model can simulate.
+    pub fn validate(&self) -> Result<(), ParameterError> {
+        let fields: [(&'static str, f64); 11] = [
+            ("gain", self.gain),
+            ("tauZero", self.tau_zero),
+            ("tauPole1", self.tau_pole1),
+            ("tauPole2", self.tau_pole2),
+            ("rampUpLimit", self.ramp_up_limit),
+            ("voltageIntercept", self.voltage_intercept),
+            ("ohmicResistance", self.ohmic_resistance),
+            ("h2Coefficient", self.h2_coefficient),
+            ("nominalCurrent", self.nominal_current),
+            ("minSetpoint", self.min_setpoint),
+            ("maxSetpoint", self.max_setpoint),
+        ];
+        for (name, value) in fields {
+            if !value.is_finite() {
+                return Err(err(name, value, "must be a finite number"));
+            }
+        }
+        positive("gain", self.gain)?;
+        non_negative("tauZero", self.tau_zero)?;
+        positive("tauPole1", self.tau_pole1)?;
+        positive("tauPole2", self.tau_pole2)?;
+        positive("rampUpLimit", self.ramp_up_limit)?;
+        non_negative("voltageIntercept", self.voltage_intercept)?;
+        non_negative("ohmicResistance", self.ohmic_resistance)?;
+        non_negative("h2Coefficient", self.h2_coefficient)?;
+        positive("nominalCurrent", self.nominal_current)?;
+        non_negative("minSetpoint", self.min_setpoint)?;
+        positive("maxSetpoint", self.max_setpoint)?;
+        if self.min_setpoint > self.max_setpoint {
+            return Err(err(
+                "minSetpoint",
+                self.min_setpoint,
+                &format!("must not exceed maxSetpoint = {}", self.max_setpoint),
+            ));
+        }
+        let separation = (self.tau_pole1 - self.tau_pole2).abs();
+        if separation < MIN_RELATIVE_POLE_SEPARATION * self.tau_pole1.max(self.tau_pole2) {
+            return Err(err(
+                "tauPole2",
+                self.tau_pole2,
+                &format!(
+                    "must differ from tauPole1 = {} by at least {} relative (double poles are not supported)",
+                    self.tau_pole1, MIN_RELATIVE_POLE_SEPARATION
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Steady-state stack current at a setpoint: I = K·setpoint [A].
+    pub fn steady_current(&self, setpoint_percent: f64) -> f64 {
+        self.gain * setpoint_percent
+    }
+
+    /// Setpoint limited to the operating window [minSetpoint, maxSetpoint] [%].
+    pub fn clamp_setpoint(&self, setpoint_percent: f64) -> f64 {
+        setpoint_percent.clamp(self.min_setpoint, self.max_setpoint)
+    }
+}
+
+fn err(name: &'static str, value: f64, requirement: &str) -> ParameterError {
+    ParameterError { name, value, requirement: requirement.to_string() }
+}
+
+fn positive(name: &'static str, value: f64) -> Result<(), ParameterError> {
+    if value > 0.0 {
+        Ok(())
+    } else {
+        Err(err(name, value, "must be > 0"))
+    }
+}
+
+fn non_negative(name: &'static str, value: f64) -> Result<(), ParameterError> {
+    if value >= 0.0 {
+        Ok(())
+    } else {
+        Err(err(name, value, "must be >= 0"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_values_are_valid_and_give_the_sanity_figures() {
+        let p = Parameters::default();
+        assert_eq!(p.validate(), Ok(()));
+        assert!((p.steady_current(100.0) - 53.4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn each_invalid_value_is_named() {
+        let cases: [(fn(&mut Parameters), &str); 8] = [
+            (|p| p.tau_pole1 = -1.0, "tauPole1"),
+            (|p| p.tau_zero = -0.5, "tauZero"),
+            (|p| p.gain = 0.0, "gain"),
+            (|p| p.ramp_up_limit = f64::NAN, "rampUpLimit"),
+            (|p| p.min_setpoint = 101.0, "minSetpoint"),
+            (|p| p.tau_pole2 = p.tau_pole1, "tauPole2"),
+            (|p| p.ohmic_resistance = -0.1, "ohmicResistance"),
+            (|p| p.nominal_current = f64::INFINITY, "nominalCurrent"),
+        ];
+        for (mutate, name) in cases {
+            let mut p = Parameters::default();
+            mutate(&mut p);
+            let e = p.validate().expect_err(name);
+            assert_eq!(e.name, name);
+            assert!(e.to_string().contains(name));
+        }
+    }
+}
