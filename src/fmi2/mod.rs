@@ -1,1 +1,16 @@
-//! FMI 2.0 layer (placeholder during bring-up).
+//! The FMI 2.0 co-simulation layer: the only unsafe code of the crate.
+//!
+//! - `exports`: the 34 C functions; catch panics, check pointers and the call sequence.
+//! - `state_machine`: which call is allowed in which state (one table).
+//! - `instance`: FMI semantics on top of [`crate::model::Module`], in safe Rust.
+//! - `variables`: model description variables ↔ model fields (exhaustive matches).
+//! - `fmu_state`: saved and serialised FMU states.
+//! - `logger`, `status`: the importer's logger and fmi2Status.
+
+pub mod exports;
+pub mod fmu_state;
+pub mod instance;
+pub mod logger;
+pub mod state_machine;
+pub mod status;
+pub mod variables;

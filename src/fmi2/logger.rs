@@ -1,0 +1,115 @@
+//! The importer's logger callback with the standard log categories.
+//!
+//! Warnings, discards and errors always reach the logger (category logStatusX); informative
+//! messages (category logEvents) only when debug logging is on and that category is enabled.
+
+use std::ffi::CString;
+
+use fmi_sys::fmi2 as sys;
+
+use crate::model_description::LOG_CATEGORIES;
+
+/// Log category of model events (clamping, initialisation, reset).
+pub const LOG_EVENTS: &str = "logEvents";
+
+/// The importer's logger, the instance's name and the enabled categories.
+pub struct Logger {
+    callback: sys::fmi2CallbackLogger,
+    environment: sys::fmi2ComponentEnvironment,
+    instance_name: CString,
+    /// Per entry of LOG_CATEGORIES: is debug logging on for it.
+    enabled: Vec<bool>,
+}
+
+impl Logger {
+    /// A logger that forwards to `callback` (which may be absent).
+    pub fn new(
+        callback: sys::fmi2CallbackLogger,
+        environment: sys::fmi2ComponentEnvironment,
+        instance_name: CString,
+        debug_logging: bool,
+    ) -> Self {
+        Logger { callback, environment, instance_name, enabled: vec![debug_logging; LOG_CATEGORIES.len()] }
+    }
+
+    /// The instance name given to fmi2Instantiate.
+    pub fn instance_name(&self) -> &str {
+        self.instance_name.to_str().unwrap_or("?")
+    }
+
+    /// fmi2SetDebugLogging: switch logging on or off for `categories` (all if empty).
+    /// Unknown category names are returned as an error and change nothing.
+    pub fn set_debug_logging(&mut self, on: bool, categories: &[String]) -> Result<(), String> {
+        let mut indices = Vec::with_capacity(categories.len());
+        for name in categories {
+            match LOG_CATEGORIES.iter().position(|c| c == name) {
+                Some(i) => indices.push(i),
+                None => {
+                    return Err(format!("unknown log category \"{name}\"; known: {}", LOG_CATEGORIES.join(", ")))
+                }
+            }
+        }
+        if indices.is_empty() {
+            self.enabled.iter_mut().for_each(|e| *e = on);
+        } else {
+            for i in indices {
+                self.enabled[i] = on;
+            }
+        }
+        Ok(())
+    }
+
+    fn category_enabled(&self, category: &str) -> bool {
+        LOG_CATEGORIES.iter().zip(&self.enabled).any(|(c, on)| *on && (*c == category || *c == "logAll"))
+    }
+
+    /// An informative message (fmi2OK) in `category`, if enabled.
+    pub fn info(&self, category: &str, message: &str) {
+        if self.category_enabled(category) {
+            self.emit(sys::fmi2Status_fmi2OK, category, message);
+        }
+    }
+
+    /// A warning; always forwarded.
+    pub fn warning(&self, message: &str) {
+        self.emit(sys::fmi2Status_fmi2Warning, "logStatusWarning", message);
+    }
+
+    /// A failure with its status; always forwarded.
+    pub fn failure(&self, status: sys::fmi2Status, message: &str) {
+        let category = match status {
+            sys::fmi2Status_fmi2Discard => "logStatusDiscard",
+            sys::fmi2Status_fmi2Fatal => "logStatusFatal",
+            _ => "logStatusError",
+        };
+        self.emit(status, category, message);
+    }
+
+    fn emit(&self, status: sys::fmi2Status, category: &str, message: &str) {
+        emit_to(self.callback, self.environment, &self.instance_name, status, category, message);
+    }
+}
+
+/// Calls an importer's logger with format "%s", so `message` is never parsed as a format.
+pub fn emit_to(
+    callback: sys::fmi2CallbackLogger,
+    environment: sys::fmi2ComponentEnvironment,
+    instance_name: &CString,
+    status: sys::fmi2Status,
+    category: &str,
+    message: &str,
+) {
+    let Some(log) = callback else { return };
+    let category = c_string(category);
+    let message = c_string(message);
+    // SAFETY: the importer gave us this function for exactly this call; all strings are
+    // NUL-terminated and live across the call; "%s" consumes exactly one char* argument.
+    unsafe {
+        log(environment, instance_name.as_ptr(), status, category.as_ptr(), c"%s".as_ptr(), message.as_ptr());
+    }
+}
+
+/// A C string from any text; interior NULs become spaces.
+pub fn c_string(text: &str) -> CString {
+    CString::new(text.replace('\0', " ")).unwrap_or_default()
+}
