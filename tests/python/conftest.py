@@ -1,0 +1,137 @@
+"""Shared fixtures: the packaged FMU, its model description, a driver with a captured logger,
+and the paper's parameters with the closed-form responses the tests compare against."""
+import math
+import os
+import shutil
+from ctypes import byref
+from pathlib import Path
+
+import pytest
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+from fmpy.logging import addLoggerProxy
+
+ROOT = Path(__file__).resolve().parents[2]
+FMU_PATH = Path(os.environ.get("AEM_FMU", ROOT / "target" / "fmu" / "AemElectrolyser.fmu"))
+
+#: Table I of the paper: the FMU's parameter start values.
+PAPER = dict(
+    gain=0.534,
+    tauZero=95.371,
+    tauPole1=1.995,
+    tauPole2=113.568,
+    rampUpLimit=0.22,
+    voltageIntercept=35.75,
+    ohmicResistance=0.1529,
+    h2Coefficient=9.6174,
+    nominalCurrent=53.35,
+    minSetpoint=60.0,
+    maxSetpoint=100.0,
+)
+
+STATUS_LABELS = ["OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING"]
+
+
+@pytest.fixture(scope="session")
+def fmu_path():
+    if not FMU_PATH.is_file():
+        pytest.fail(f"{FMU_PATH} not found: build it with python3 packaging/package.py")
+    return FMU_PATH
+
+
+@pytest.fixture(scope="session")
+def unzipdir(fmu_path, tmp_path_factory):
+    target = tmp_path_factory.mktemp("fmu")
+    extract(str(fmu_path), str(target))
+    yield str(target)
+    shutil.rmtree(target, ignore_errors=True)
+
+
+@pytest.fixture(scope="session")
+def model_description(fmu_path):
+    return read_model_description(str(fmu_path))
+
+
+class Driver:
+    """One FMU instance driven through fmpy's FMU2Slave, with its log captured.
+
+    `messages` holds (status label, category, message) tuples from the FMU's logger.
+    """
+
+    def __init__(self, unzipdir, model_description, name="aem", logging_on=False):
+        self.md = model_description
+        self.vr = {v.name: v.valueReference for v in model_description.modelVariables}
+        self.messages = []
+        self._callbacks = fmi2CallbackFunctions()
+        self._logger = fmi2CallbackLoggerTYPE(self._log)  # keep a reference alive
+        self._callbacks.logger = self._logger
+        addLoggerProxy(byref(self._callbacks))
+        self.fmu = FMU2Slave(
+            guid=model_description.guid,
+            unzipDirectory=unzipdir,
+            modelIdentifier=model_description.coSimulation.modelIdentifier,
+            instanceName=name,
+        )
+        self.fmu.instantiate(callbacks=self._callbacks, loggingOn=logging_on)
+        self.time = 0.0
+
+    def _log(self, env, instance_name, status, category, message):
+        self.messages.append((STATUS_LABELS[status], category.decode(), message.decode()))
+
+    def initialize(self, setpoint=100.0, start_time=0.0, **parameters):
+        """setupExperiment, parameters and setpoint, enter/exit initialization mode."""
+        self.fmu.setupExperiment(startTime=start_time)
+        self.set(setpoint=setpoint, **parameters)
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+        self.time = start_time
+        return self
+
+    def set(self, **values):
+        names = list(values)
+        self.fmu.setReal([self.vr[n] for n in names], [float(values[n]) for n in names])
+
+    def get(self, *names):
+        values = self.fmu.getReal([self.vr[n] for n in names])
+        return values[0] if len(names) == 1 else values
+
+    def step(self, h, setpoint=None):
+        if setpoint is not None:
+            self.set(setpoint=setpoint)
+        self.fmu.doStep(currentCommunicationPoint=self.time, communicationStepSize=h)
+        self.time += h
+
+    def free(self):
+        self.fmu.terminate()
+        self.fmu.freeInstance()
+
+
+@pytest.fixture
+def driver(unzipdir, model_description):
+    """Factory for drivers; every instance made is freed at the end of the test."""
+    made = []
+
+    def make(**kwargs):
+        d = Driver(unzipdir, model_description, **kwargs)
+        made.append(d)
+        return d
+
+    yield make
+    for d in made:
+        try:
+            d.fmu.freeInstance()
+        except Exception:
+            pass
+
+
+def modal_weights(p=PAPER):
+    """G(s) = K(a/(tauPole1 s+1) + b/(tauPole2 s+1)) with a + b = 1."""
+    a = (p["tauZero"] - p["tauPole1"]) / (p["tauPole2"] - p["tauPole1"])
+    return a, 1.0 - a
+
+
+def unlimited_step_response(u0, u1, t, p=PAPER):
+    """Current [A] t seconds after a setpoint step u0 -> u1 [%] from steady state, no rate limit."""
+    a, b = modal_weights(p)
+    k = p["gain"]
+    return k * u1 + k * (u0 - u1) * (a * math.exp(-t / p["tauPole1"]) + b * math.exp(-t / p["tauPole2"]))
