@@ -17,6 +17,9 @@ use super::variables::{output, parameter_mut};
 /// masters that sum their step sizes drift by a few ulps from any other sum.
 const TIME_TOLERANCE: f64 = 1e-9;
 
+/// Relative distance outside the setpoint window below which no warning is logged.
+const WINDOW_TOLERANCE: f64 = 1e-9;
+
 const INSTANCE_MAGIC: u64 = 0x4145_4d5f_494e_5354; // "AEM_INST"
 
 /// The state of one instance.
@@ -175,7 +178,10 @@ impl Instance {
     /// Logs a warning when the setpoint leaves the operating window (once per excursion).
     fn update_excursion(&mut self) -> Status {
         let (lo, hi) = (self.params.min_setpoint, self.params.max_setpoint);
-        let outside = self.setpoint < lo || self.setpoint > hi;
+        // Rounding noise from a master's interpolation (100.00000000000001 %) is clamped
+        // silently; only a real excursion is worth a warning.
+        let slack = WINDOW_TOLERANCE * lo.abs().max(hi.abs()).max(1.0);
+        let outside = self.setpoint < lo - slack || self.setpoint > hi + slack;
         if outside && !self.excursion {
             self.excursion = true;
             self.logger.warning(&format!(

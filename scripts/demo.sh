@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Quick start, command 1: build the FMU and run the demo (a setpoint step schedule in fmpy).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+.venv/bin/python packaging/package.py
+.venv/bin/python examples/step_schedule.py "$@"
