@@ -49,34 +49,38 @@ pub struct CurrentDynamics {
     a: f64,
     b: f64,
     ramp: f64,
+    /// Weights of the closed-form integrals over a tracking segment (see [`Decay`]):
+    /// a·τp1, b·τp2 [s]; a²·τp1/2, b²·τp2/2, 2ab/(λ1 + λ2) [s].
+    k1: f64,
+    k2: f64,
+    k11: f64,
+    k22: f64,
+    k12: f64,
+}
+
+/// Decay of both modes over one interval of length L: e^(−λi L) and 1 − e^(−λi L)
+/// (from expm1, so short intervals keep full precision), and 1 − e^(−(λ1+λ2) L).
+#[derive(Clone, Copy, Debug)]
+struct Decay {
+    e1: f64,
+    e2: f64,
+    d1: f64,
+    d2: f64,
+    d12: f64,
 }
 
 /// Step-size dependent factors, reused while the master keeps its step size.
 #[derive(Clone, Copy, Debug)]
 pub struct StepFactors {
     h: f64,
-    /// e^(−λi h).
-    e1: f64,
-    e2: f64,
-    /// Exponential integrals over [0, h] (see [`ExpIntegrals`]).
-    ints: ExpIntegrals,
+    decay: Decay,
 }
 
 impl Default for StepFactors {
     fn default() -> Self {
         // NaN never compares equal, so the first step always computes its factors.
-        StepFactors { h: f64::NAN, e1: 1.0, e2: 1.0, ints: ExpIntegrals::default() }
+        StepFactors { h: f64::NAN, decay: Decay { e1: 1.0, e2: 1.0, d1: 0.0, d2: 0.0, d12: 0.0 } }
     }
-}
-
-/// ∫₀ᴸ of e^(−λ1 s), e^(−λ2 s), e^(−2λ1 s), e^(−(λ1+λ2) s), e^(−2λ2 s) ds [s].
-#[derive(Clone, Copy, Debug, Default)]
-struct ExpIntegrals {
-    c1: f64,
-    c2: f64,
-    c11: f64,
-    c12: f64,
-    c22: f64,
 }
 
 impl CurrentDynamics {
@@ -84,13 +88,20 @@ impl CurrentDynamics {
     pub fn new(params: &Parameters) -> Self {
         let (t1, t2, tz) = (params.tau_pole1, params.tau_pole2, params.tau_zero);
         let a = (tz - t1) / (t2 - t1);
+        let b = (t2 - tz) / (t2 - t1);
+        let (lambda1, lambda2) = (1.0 / t1, 1.0 / t2);
         CurrentDynamics {
             gain: params.gain,
-            lambda1: 1.0 / t1,
-            lambda2: 1.0 / t2,
+            lambda1,
+            lambda2,
             a,
-            b: (t2 - tz) / (t2 - t1),
+            b,
             ramp: params.ramp_up_limit,
+            k1: a * t1,
+            k2: b * t2,
+            k11: 0.5 * a * a * t1,
+            k22: 0.5 * b * b * t2,
+            k12: 2.0 * a * b / (lambda1 + lambda2),
         }
     }
 
@@ -105,26 +116,34 @@ impl CurrentDynamics {
         self.a * state.z1 + self.b * state.z2
     }
 
-    fn exp_integrals(&self, d1: f64, d2: f64) -> ExpIntegrals {
-        // d = 1 − e^(−λL) from expm1, so short steps keep full precision.
-        let (l1, l2) = (self.lambda1, self.lambda2);
-        ExpIntegrals {
-            c1: d1 / l1,
-            c2: d2 / l2,
-            c11: d1 * (2.0 - d1) / (2.0 * l1),
-            c12: (d1 + d2 - d1 * d2) / (l1 + l2),
-            c22: d2 * (2.0 - d2) / (2.0 * l2),
-        }
+    fn decay(&self, length: f64) -> Decay {
+        let m1 = (-self.lambda1 * length).exp_m1();
+        let m2 = (-self.lambda2 * length).exp_m1();
+        Decay { e1: 1.0 + m1, e2: 1.0 + m2, d1: -m1, d2: -m2, d12: -(m1 + m2 + m1 * m2) }
     }
 
-    fn integrals_over(&self, length: f64) -> (f64, f64, ExpIntegrals) {
-        let d1 = -(-self.lambda1 * length).exp_m1();
-        let d2 = -(-self.lambda2 * length).exp_m1();
-        (1.0 - d1, 1.0 - d2, self.exp_integrals(d1, d2))
+    /// ∫I dt and ∫I² dt over a tracking segment that starts with modal deviations
+    /// δi = zi − y and lasts as long as `decay` says. With Δi = δi(1 − e^(−λi L)):
+    ///   ∫I_tf    = y L + a τp1 Δ1 + b τp2 Δ2
+    ///   ∫I_tf²   = y² L + 2y(a τp1 Δ1 + b τp2 Δ2) + a² τp1/2 · Δ1(δ1 + δ1 e^(−λ1 L))
+    ///            + b² τp2/2 · Δ2(δ2 + δ2 e^(−λ2 L)) + 2ab/(λ1+λ2) · δ1 δ2 (1 − e^(−(λ1+λ2) L))
+    #[inline]
+    fn track_integrals(&self, y: f64, dev1: f64, dev2: f64, length: f64, decay: &Decay) -> (f64, f64) {
+        let drop1 = dev1 * decay.d1;
+        let drop2 = dev2 * decay.d2;
+        let lin = self.k1 * drop1 + self.k2 * drop2;
+        let charge = y * length + lin;
+        let squared = y * y * length
+            + 2.0 * y * lin
+            + self.k11 * drop1 * (dev1 + dev1 * decay.e1)
+            + self.k22 * drop2 * (dev2 + dev2 * decay.e2)
+            + self.k12 * dev1 * dev2 * decay.d12;
+        (charge, squared)
     }
 
     /// Advances `state` by `h` > 0 seconds with the setpoint `u` [%] held constant,
     /// returning the exact integrals of the current over the step.
+    #[inline]
     pub fn advance(
         &self,
         state: &mut CurrentState,
@@ -133,52 +152,49 @@ impl CurrentDynamics {
         factors: &mut StepFactors,
     ) -> CurrentIntegrals {
         if factors.h != h {
-            let (e1, e2, ints) = self.integrals_over(h);
-            *factors = StepFactors { h, e1, e2, ints };
+            *factors = StepFactors { h, decay: self.decay(h) };
         }
+        let decay = factors.decay;
         let y = self.gain * u;
-        // I_tf(τ) = y + A e^(−λ1 τ) + B e^(−λ2 τ) over the step.
-        let amp_a = self.a * (state.z1 - y);
-        let amp_b = self.b * (state.z2 - y);
-        let tf0 = y + amp_a + amp_b;
+        // I_tf(τ) = y + a δ1 e^(−λ1 τ) + b δ2 e^(−λ2 τ) over the step.
+        let (dev1, dev2) = (state.z1 - y, state.z2 - y);
+        let tf0 = y + self.a * dev1 + self.b * dev2;
         let tracking = tf0 - state.current <= 1e-12 * tf0.abs().max(1.0);
         // Largest possible slope of I_tf on the step; at most r means the limit never binds.
-        let max_rise = (-self.lambda1 * amp_a).max(0.0) + (-self.lambda2 * amp_b).max(0.0);
-
-        let (integrals, limited_end) = if tracking && max_rise <= self.ramp {
-            let ints = &factors.ints;
-            let lin = amp_a * ints.c1 + amp_b * ints.c2;
-            let integrals = CurrentIntegrals {
-                charge: y * h + lin,
-                current_squared: y * y * h
-                    + 2.0 * y * lin
-                    + amp_a * amp_a * ints.c11
-                    + 2.0 * amp_a * amp_b * ints.c12
-                    + amp_b * amp_b * ints.c22,
-                ramp_time: 0.0,
-            };
-            (integrals, f64::INFINITY)
-        } else {
-            let start = if tracking { tf0 } else { state.current.min(tf0) };
-            self.limited_step(y, amp_a, amp_b, start, h)
-        };
-
-        state.z1 = y + (state.z1 - y) * factors.e1;
-        state.z2 = y + (state.z2 - y) * factors.e2;
+        let max_rise = (-self.lambda1 * self.a * dev1).max(0.0) + (-self.lambda2 * self.b * dev2).max(0.0);
+        state.z1 = y + dev1 * decay.e1;
+        state.z2 = y + dev2 * decay.e2;
+        let tf_end = self.unlimited_current(state);
+        if tracking && max_rise <= self.ramp {
+            let (charge, current_squared) = self.track_integrals(y, dev1, dev2, h, &decay);
+            state.current = tf_end;
+            return CurrentIntegrals { charge, current_squared, ramp_time: 0.0 };
+        }
+        let start = if tracking { tf0 } else { state.current.min(tf0) };
+        let (integrals, limited_end) = self.limited_step(y, dev1, dev2, start, h);
         // I(h) = r·h + M(h) from the running minimum, never above I_tf(h).
-        state.current = limited_end.min(self.unlimited_current(state));
+        state.current = limited_end.min(tf_end);
         integrals
     }
 
     /// The general step: split [0, h] where h(τ) = I_tf(τ) − rτ is monotone, follow its
     /// running minimum, and integrate the ramp and tracking segments in closed form.
-    fn limited_step(&self, y: f64, amp_a: f64, amp_b: f64, start: f64, h: f64) -> (CurrentIntegrals, f64) {
-        let curve = Curve { y, amp_a, amp_b, l1: self.lambda1, l2: self.lambda2, r: self.ramp };
-        let pieces = curve.monotone_pieces(h);
+    /// Returns the integrals and the current r·h + M(h) at the end.
+    #[inline(never)]
+    fn limited_step(&self, y: f64, dev1: f64, dev2: f64, start: f64, h: f64) -> (CurrentIntegrals, f64) {
+        let curve = Curve {
+            y,
+            amp_a: self.a * dev1,
+            amp_b: self.b * dev2,
+            l1: self.lambda1,
+            l2: self.lambda2,
+            r: self.ramp,
+        };
+        let (points, count) = curve.monotone_pieces(h);
         // M: running minimum of h(τ) = I_tf(τ) − rτ; the current is I(τ) = M + rτ.
         let mut m = start;
         let mut out = CurrentIntegrals::default();
-        for window in pieces.windows(2) {
+        for window in points[..count].windows(2) {
             let (p, q) = (window[0], window[1]);
             if q <= p {
                 continue;
@@ -188,18 +204,19 @@ impl CurrentDynamics {
                 // h rises (or stays above M): the running minimum holds, the current ramps.
                 self.add_ramp(&mut out, m, p, q);
             } else if hp <= m {
-                self.add_track(&mut out, &curve, p, q);
+                self.add_track(&mut out, y, dev1, dev2, p, q);
                 m = hq;
             } else {
                 let crossing = monotone_root(|t| curve.h_and_slope(t, m), p, q, hp - m, hq - m);
                 self.add_ramp(&mut out, m, p, crossing);
-                self.add_track(&mut out, &curve, crossing, q);
+                self.add_track(&mut out, y, dev1, dev2, crossing, q);
                 m = hq;
             }
         }
         (out, m + self.ramp * h)
     }
 
+    /// Ramp segment [s0, s1]: I = I0 + r(τ − s0) with I0 = M + r·s0.
     fn add_ramp(&self, out: &mut CurrentIntegrals, m: f64, s0: f64, s1: f64) {
         let length = s1 - s0;
         let i0 = m + self.ramp * s0;
@@ -209,16 +226,13 @@ impl CurrentDynamics {
         out.ramp_time += length;
     }
 
-    fn add_track(&self, out: &mut CurrentIntegrals, curve: &Curve, s0: f64, s1: f64) {
-        let (_, _, ints) = self.integrals_over(s1 - s0);
-        let a0 = curve.amp_a * (-curve.l1 * s0).exp();
-        let b0 = curve.amp_b * (-curve.l2 * s0).exp();
-        let y = curve.y;
-        let length = s1 - s0;
-        let lin = a0 * ints.c1 + b0 * ints.c2;
-        out.charge += y * length + lin;
-        out.current_squared +=
-            y * y * length + 2.0 * y * lin + a0 * a0 * ints.c11 + 2.0 * a0 * b0 * ints.c12 + b0 * b0 * ints.c22;
+    /// Tracking segment [s0, s1] of a step whose modal deviations were δ1, δ2 at τ = 0.
+    fn add_track(&self, out: &mut CurrentIntegrals, y: f64, dev1: f64, dev2: f64, s0: f64, s1: f64) {
+        let at_start = self.decay(s0);
+        let (charge, squared) =
+            self.track_integrals(y, dev1 * at_start.e1, dev2 * at_start.e2, s1 - s0, &self.decay(s1 - s0));
+        out.charge += charge;
+        out.current_squared += squared;
     }
 }
 
@@ -254,32 +268,35 @@ impl Curve {
         (-self.l1 * ea - self.l2 * eb - self.r, self.l1 * self.l1 * ea + self.l2 * self.l2 * eb)
     }
 
-    /// Break points 0 = p0 < … < pk = len such that h is monotone on each piece (k ≤ 3).
-    fn monotone_pieces(&self, len: f64) -> Vec<f64> {
-        let mut points = Vec::with_capacity(5);
-        points.push(0.0);
-        // h'' = λ1² A e^(−λ1 τ) + λ2² B e^(−λ2 τ) vanishes at most once, where A·B < 0.
+    /// Break points 0 = p0 < … < pk = len such that h is monotone on each piece (k ≤ 4),
+    /// as a fixed array and the number of points used.
+    fn monotone_pieces(&self, len: f64) -> ([f64; 5], usize) {
+        // h'' = λ1² A e^(−λ1 τ) + λ2² B e^(−λ2 τ) vanishes at most once, where A·B < 0;
+        // between 0, that point and len, h' is monotone and has at most one zero.
+        let mut inflection = None;
         if self.amp_a * self.amp_b < 0.0 {
             let ratio = -(self.l2 * self.l2 * self.amp_b) / (self.l1 * self.l1 * self.amp_a);
             let t = ratio.ln() / (self.l2 - self.l1);
             if t > 0.0 && t < len {
-                points.push(t);
+                inflection = Some(t);
             }
         }
-        points.push(len);
-        // h' is monotone between those points: at most one zero on each.
-        let mut pieces = Vec::with_capacity(5);
-        pieces.push(0.0);
-        for w in points.windows(2) {
-            let (p, q) = (w[0], w[1]);
-            let (sp, _) = self.slope_and_curvature(p);
-            let (sq, _) = self.slope_and_curvature(q);
-            if (sp < 0.0 && sq > 0.0) || (sp > 0.0 && sq < 0.0) {
-                pieces.push(monotone_root(|t| self.slope_and_curvature(t), p, q, sp, sq));
+        let mut points = [0.0; 5];
+        let mut count = 1;
+        let mut p = 0.0;
+        let mut slope_p = self.slope_and_curvature(0.0).0;
+        for q in inflection.into_iter().chain(std::iter::once(len)) {
+            let slope_q = self.slope_and_curvature(q).0;
+            if (slope_p < 0.0 && slope_q > 0.0) || (slope_p > 0.0 && slope_q < 0.0) {
+                points[count] = monotone_root(|t| self.slope_and_curvature(t), p, q, slope_p, slope_q);
+                count += 1;
             }
-            pieces.push(q);
+            points[count] = q;
+            count += 1;
+            p = q;
+            slope_p = slope_q;
         }
-        pieces
+        (points, count)
     }
 }
 

@@ -64,6 +64,8 @@ pub struct Module {
     dynamics: CurrentDynamics,
     state: ModuleState,
     factors: StepFactors,
+    /// c / 3600: hydrogen per ampere-second [Nl/(A·s)].
+    h2_per_coulomb: f64,
 }
 
 impl Module {
@@ -84,10 +86,12 @@ impl Module {
             dynamics,
             state: ModuleState { time: 0.0, current, energy: 0.0, h2_produced: 0.0 },
             factors: StepFactors::default(),
+            h2_per_coulomb: params.h2_coefficient / SECONDS_PER_HOUR,
         })
     }
 
     /// Advances by `h` seconds with `setpoint` [%] held over the step (clamped to the window).
+    #[inline]
     pub fn step(&mut self, setpoint: f64, h: f64) -> Result<StepReport, StepError> {
         if !setpoint.is_finite() {
             return Err(StepError::NonFiniteSetpoint(setpoint));
@@ -100,7 +104,7 @@ impl Module {
             self.dynamics.advance(&mut self.state.current, u, h, &mut self.factors);
         let p = &self.params;
         self.state.energy += p.voltage_intercept * charge + p.ohmic_resistance * current_squared;
-        self.state.h2_produced += p.h2_coefficient * charge / SECONDS_PER_HOUR;
+        self.state.h2_produced += self.h2_per_coulomb * charge;
         self.state.time += h;
         Ok(StepReport { applied_setpoint: u, ramp_time })
     }
