@@ -171,7 +171,7 @@ impl CurrentDynamics {
             return CurrentIntegrals { charge, current_squared, ramp_time: 0.0 };
         }
         let start = if tracking { tf0 } else { state.current.min(tf0) };
-        let (integrals, limited_end) = self.limited_step(y, dev1, dev2, start, h);
+        let (integrals, limited_end) = self.limited_step(y, dev1, dev2, start, h, &decay);
         // I(h) = r·h + M(h) from the running minimum, never above I_tf(h).
         state.current = limited_end.min(tf_end);
         integrals
@@ -181,7 +181,15 @@ impl CurrentDynamics {
     /// running minimum, and integrate the ramp and tracking segments in closed form.
     /// Returns the integrals and the current r·h + M(h) at the end.
     #[inline(never)]
-    fn limited_step(&self, y: f64, dev1: f64, dev2: f64, start: f64, h: f64) -> (CurrentIntegrals, f64) {
+    fn limited_step(
+        &self,
+        y: f64,
+        dev1: f64,
+        dev2: f64,
+        start: f64,
+        h: f64,
+        decay: &Decay,
+    ) -> (CurrentIntegrals, f64) {
         let curve = Curve {
             y,
             amp_a: self.a * dev1,
@@ -189,6 +197,9 @@ impl CurrentDynamics {
             l1: self.lambda1,
             l2: self.lambda2,
             r: self.ramp,
+            len: h,
+            e1_len: decay.e1,
+            e2_len: decay.e2,
         };
         let (points, count) = curve.monotone_pieces(h);
         // M: running minimum of h(τ) = I_tf(τ) − rτ; the current is I(τ) = M + rτ.
@@ -204,12 +215,12 @@ impl CurrentDynamics {
                 // h rises (or stays above M): the running minimum holds, the current ramps.
                 self.add_ramp(&mut out, m, p, q);
             } else if hp <= m {
-                self.add_track(&mut out, y, dev1, dev2, p, q);
+                self.add_track(&mut out, &curve, dev1, dev2, p, q, decay);
                 m = hq;
             } else {
                 let crossing = monotone_root(|t| curve.h_and_slope(t, m), p, q, hp - m, hq - m);
                 self.add_ramp(&mut out, m, p, crossing);
-                self.add_track(&mut out, y, dev1, dev2, crossing, q);
+                self.add_track(&mut out, &curve, dev1, dev2, crossing, q, decay);
                 m = hq;
             }
         }
@@ -226,11 +237,22 @@ impl CurrentDynamics {
         out.ramp_time += length;
     }
 
-    /// Tracking segment [s0, s1] of a step whose modal deviations were δ1, δ2 at τ = 0.
-    fn add_track(&self, out: &mut CurrentIntegrals, y: f64, dev1: f64, dev2: f64, s0: f64, s1: f64) {
-        let at_start = self.decay(s0);
-        let (charge, squared) =
-            self.track_integrals(y, dev1 * at_start.e1, dev2 * at_start.e2, s1 - s0, &self.decay(s1 - s0));
+    /// Tracking segment [s0, s1] of a step whose modal deviations were δ1, δ2 at τ = 0;
+    /// `step` is the decay over the whole step, reused when the segment is the whole step.
+    #[allow(clippy::too_many_arguments)]
+    fn add_track(
+        &self,
+        out: &mut CurrentIntegrals,
+        curve: &Curve,
+        dev1: f64,
+        dev2: f64,
+        s0: f64,
+        s1: f64,
+        step: &Decay,
+    ) {
+        let (e1, e2) = curve.decays(s0);
+        let segment = if s0 == 0.0 && s1 == curve.len { *step } else { self.decay(s1 - s0) };
+        let (charge, squared) = self.track_integrals(curve.y, dev1 * e1, dev2 * e2, s1 - s0, &segment);
         out.charge += charge;
         out.current_squared += squared;
     }
@@ -244,11 +266,28 @@ struct Curve {
     l1: f64,
     l2: f64,
     r: f64,
+    /// Step length and e^(−λi len), known from the step factors.
+    len: f64,
+    e1_len: f64,
+    e2_len: f64,
 }
 
 impl Curve {
+    /// (e^(−λ1 τ), e^(−λ2 τ)); free at the ends of the step.
+    fn decays(&self, t: f64) -> (f64, f64) {
+        if t == 0.0 {
+            (1.0, 1.0)
+        } else if t == self.len {
+            (self.e1_len, self.e2_len)
+        } else {
+            ((-self.l1 * t).exp(), (-self.l2 * t).exp())
+        }
+    }
+
+    /// (A e^(−λ1 τ), B e^(−λ2 τ)).
     fn exps(&self, t: f64) -> (f64, f64) {
-        (self.amp_a * (-self.l1 * t).exp(), self.amp_b * (-self.l2 * t).exp())
+        let (e1, e2) = self.decays(t);
+        (self.amp_a * e1, self.amp_b * e2)
     }
 
     fn h(&self, t: f64) -> f64 {

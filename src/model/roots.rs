@@ -28,8 +28,10 @@ pub fn monotone_root(f: impl Fn(f64) -> (f64, f64), lo: f64, hi: f64, f_lo: f64,
             b = x;
         }
         let newton = x - fx / dfx;
-        if (newton - x).abs() <= 2.0 * f64::EPSILON * x.abs().max(f64::MIN_POSITIVE) {
-            return x;
+        // Newton converges quadratically: once its step is below 1e-9 of the bracket, the
+        // step itself lands within rounding of the root.
+        if (newton - x).abs() <= 1e-9 * (hi - lo) && newton >= a && newton <= b {
+            return newton;
         }
         if b - a <= 2.0 * f64::EPSILON * a.abs().max(b.abs()) {
             return 0.5 * (a + b);

@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Benchmarks (printed figures): the Rust model and C ABI in process, then fmpy and the
+# Python/SciPy peer in the same run.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+.venv/bin/python packaging/package.py
+echo "== Rust (cargo bench --bench model_step) on $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs), $(nproc) cores"
+cargo bench --locked --bench model_step -- --json target/bench/rust.json
+echo "== fmpy and Python/SciPy"
+.venv/bin/python bench/fmpy_bench.py --rust target/bench/rust.json
