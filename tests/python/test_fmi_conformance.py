@@ -446,16 +446,16 @@ def _other_guid(b, guid_length):
 CORRUPTIONS = {
     "flip-magic": (_flipped(lambda n, g: STATE_MAGIC), ("magic",)),
     "flip-version": (_flipped(lambda n, g: STATE_VERSION), ("version",)),
-    "flip-length": (_flipped(lambda n, g: STATE_LENGTH), ()),
+    "flip-length": (_flipped(lambda n, g: STATE_LENGTH), ("announces",)),
     "flip-guid": (_flipped(lambda n, g: STATE_PAYLOAD + 4 + 3), ("checksum",)),
     "flip-fmi-state": (_flipped(lambda n, g: STATE_PAYLOAD + 4 + g), ("checksum",)),
     "flip-real": (_flipped(lambda n, g: STATE_PAYLOAD + 4 + g + 3 + 8 * 16 + 3), ("checksum",)),
     "flip-crc": (_flipped(lambda n, g: n - 1), ("checksum",)),
     "truncated-to-empty": (lambda blob, g: b"", ("truncated",)),
     "truncated-header": (lambda blob, g: blob[:10], ("truncated",)),
-    "truncated-by-one": (lambda blob, g: blob[:-1], ()),
-    "truncated-half": (lambda blob, g: blob[: len(blob) // 2], ()),
-    "extended-by-one": (lambda blob, g: blob + b"\0", ()),
+    "truncated-by-one": (lambda blob, g: blob[:-1], ("announces",)),
+    "truncated-half": (lambda blob, g: blob[: len(blob) // 2], ("announces",)),
+    "extended-by-one": (lambda blob, g: blob + b"\0", ("announces",)),
     "wrong-version": (_resealed(_set_u32(STATE_VERSION, 2)), ("version 2",)),
     "other-guid": (_resealed(_other_guid), ("GUID",)),
     "unknown-fmi-state": (_resealed(_set_byte(0, 3)), ("FMI state",)),
@@ -490,6 +490,26 @@ def test_corrupt_serialized_state_is_refused_and_changes_nothing(driver, model_d
 
     assert probe.fmu.serializeFMUstate(existing) == good
     probe.fmu.freeFMUstate(existing)
+    assert snapshot(probe) == snapshot(twin)
+    assert_bit_identical(run(probe, CONTINUATION), run(twin, CONTINUATION))
+
+
+def test_every_single_byte_flip_and_truncation_is_refused(driver):
+    """No single flipped byte anywhere and no truncation to any length is accepted: the CRC-32
+    and the header catch them all; the instance keeps continuing like its twin."""
+    probe, twin = named_drivers(driver, "probe", "twin")
+    for d in (probe, twin):
+        d.initialize(setpoint=INITIAL_SETPOINT)
+        run(d, PREFIX)
+    good = snapshot(probe)
+    variants = [good[:i] + bytes([good[i] ^ 0x01]) + good[i + 1:] for i in range(len(good))]
+    variants += [good[:n] for n in range(len(good))]
+    for i, bad in enumerate(variants):
+        target = fmi2FMUstate()
+        buffer = create_string_buffer(bad, len(bad)) if bad else None
+        status = call(probe, "fmi2DeSerializeFMUstate", buffer, len(bad), byref(target))
+        assert (status, target.value) == (FMI_ERROR, None), f"variant {i} of {len(variants)} accepted"
+    assert len([m for m in probe.messages if m[0] == "ERROR"]) == len(variants)
     assert snapshot(probe) == snapshot(twin)
     assert_bit_identical(run(probe, CONTINUATION), run(twin, CONTINUATION))
 
@@ -871,6 +891,18 @@ def test_status_inquiry(driver):
     assert d.fmu.getRealStatus(fmi2LastSuccessfulTime) == d.time
 
 
+def test_start_time_shifts_time_only(driver):
+    """fmi2SetupExperiment(startTime) sets where time begins: communication points count from it,
+    fmi2LastSuccessfulTime reports it, and the outputs equal a run started at 0."""
+    late, early = named_drivers(driver, "late", "early")
+    late.initialize(setpoint=INITIAL_SETPOINT, start_time=1000.0)
+    early.initialize(setpoint=INITIAL_SETPOINT)
+    assert late.fmu.getRealStatus(fmi2LastSuccessfulTime) == 1000.0
+    assert status_of(lambda: late.fmu.doStep(0.0, 1.0)) == FMI_ERROR  # time 0 is not the FMU's time
+    assert_bit_identical(run(late, PREFIX), run(early, PREFIX))
+    assert late.fmu.getRealStatus(fmi2LastSuccessfulTime) == late.time
+
+
 # ---------------------------------------------------------------- 7. logging
 
 
@@ -893,6 +925,19 @@ def test_log_events_category_switches_on_and_off(driver):
     d.step(1.0, setpoint=120.0)  # leaves the window: a warning
     d.step(1.0, setpoint=90.0)  # back in the window: a logEvents message if enabled
     assert event_messages(d.messages[n:]) == []
+
+
+def test_debug_logging_with_categories_outputs_only_those(driver):
+    """Section 2.1.5: "If loggingOn = fmi2True and nCategories > 0, then only debug messages
+    according to the categories argument shall be output": after (true, {logEvents}) and then
+    (true, {logStatusWarning}), logEvents messages are no longer output."""
+    d = driver(logging_on=False)
+    d.fmu.setDebugLogging(True, ["logEvents"])
+    d.fmu.setDebugLogging(True, ["logStatusWarning"])
+    d.initialize(setpoint=INITIAL_SETPOINT)
+    d.step(1.0, setpoint=120.0)
+    d.step(1.0, setpoint=90.0)
+    assert event_messages(d.messages) == []
 
 
 def test_debug_logging_is_off_unless_requested(driver):
