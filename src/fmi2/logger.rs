@@ -11,6 +11,8 @@ use crate::model_description::LOG_CATEGORIES;
 
 /// Log category of model events (clamping, initialisation, reset).
 pub const LOG_EVENTS: &str = "logEvents";
+/// The category that stands for all others in fmi2SetDebugLogging.
+const LOG_ALL: &str = "logAll";
 
 /// The importer's logger, the instance's name and the enabled categories.
 pub struct Logger {
@@ -37,30 +39,35 @@ impl Logger {
         self.instance_name.to_str().unwrap_or("?")
     }
 
-    /// fmi2SetDebugLogging: switch logging on or off for `categories` (all if empty).
-    /// Unknown category names are returned as an error and change nothing.
+    /// fmi2SetDebugLogging (FMI 2.0, section 2.1.5): `on` with no categories enables all,
+    /// `on` with categories enables exactly those, `off` with no categories disables all, `off`
+    /// with categories disables those. `logAll` stands for every category. Unknown names are
+    /// returned as an error and change nothing.
     pub fn set_debug_logging(&mut self, on: bool, categories: &[String]) -> Result<(), String> {
-        let mut indices = Vec::with_capacity(categories.len());
+        let mut named = vec![false; LOG_CATEGORIES.len()];
         for name in categories {
             match LOG_CATEGORIES.iter().position(|c| c == name) {
-                Some(i) => indices.push(i),
+                Some(_) if name == LOG_ALL => named.iter_mut().for_each(|n| *n = true),
+                Some(i) => named[i] = true,
                 None => {
                     return Err(format!("unknown log category \"{name}\"; known: {}", LOG_CATEGORIES.join(", ")))
                 }
             }
         }
-        if indices.is_empty() {
+        if categories.is_empty() {
             self.enabled.iter_mut().for_each(|e| *e = on);
+        } else if on {
+            self.enabled = named;
         } else {
-            for i in indices {
-                self.enabled[i] = on;
+            for (e, n) in self.enabled.iter_mut().zip(named) {
+                *e &= !n;
             }
         }
         Ok(())
     }
 
     fn category_enabled(&self, category: &str) -> bool {
-        LOG_CATEGORIES.iter().zip(&self.enabled).any(|(c, on)| *on && (*c == category || *c == "logAll"))
+        LOG_CATEGORIES.iter().zip(&self.enabled).any(|(c, on)| *on && *c == category)
     }
 
     /// An informative message (fmi2OK) in `category`, if enabled.

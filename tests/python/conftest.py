@@ -1,5 +1,6 @@
 """Shared fixtures: the packaged FMU, its model description, a driver with a captured logger,
 and the paper's parameters with the closed-form responses the tests compare against."""
+import itertools
 import math
 import os
 import shutil
@@ -31,6 +32,23 @@ PAPER = dict(
 
 STATUS_LABELS = ["OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING"]
 
+#: Live drivers by instance name. fmpy's native logger proxy (fmpy.logging.addLoggerProxy)
+#: formats the variadic message and forwards it to ONE global Python callback, the last one
+#: registered; this module's callback routes each message to its driver by instance name.
+_DRIVERS = {}
+_NAMES = itertools.count()
+
+
+def _route(env, instance_name, status, category, message):
+    d = _DRIVERS.get(instance_name.decode())
+    if d is not None:
+        d.messages.append((STATUS_LABELS[status], category.decode(), message.decode()))
+
+
+_CALLBACKS = fmi2CallbackFunctions()
+_LOGGER = fmi2CallbackLoggerTYPE(_route)
+_CALLBACKS.logger = _LOGGER
+
 
 @pytest.fixture(scope="session")
 def fmu_path():
@@ -58,14 +76,17 @@ class Driver:
     `messages` holds (status label, category, message) tuples from the FMU's logger.
     """
 
-    def __init__(self, unzipdir, model_description, name="aem", logging_on=False):
+    def __init__(self, unzipdir, model_description, name=None, logging_on=False):
         self.md = model_description
         self.vr = {v.name: v.valueReference for v in model_description.modelVariables}
         self.messages = []
-        self._callbacks = fmi2CallbackFunctions()
-        self._logger = fmi2CallbackLoggerTYPE(self._log)  # keep a reference alive
-        self._callbacks.logger = self._logger
-        addLoggerProxy(byref(self._callbacks))
+        name = name or f"aem{next(_NAMES)}"
+        _DRIVERS[name] = self
+        # (Re-)register the routing callback: another test may have registered its own.
+        # addLoggerProxy swaps the struct's logger for the native proxy, so restore it first.
+        _CALLBACKS.logger = _LOGGER
+        addLoggerProxy(byref(_CALLBACKS))
+        self._callbacks = _CALLBACKS
         self.fmu = FMU2Slave(
             guid=model_description.guid,
             unzipDirectory=unzipdir,
@@ -74,9 +95,6 @@ class Driver:
         )
         self.fmu.instantiate(callbacks=self._callbacks, loggingOn=logging_on)
         self.time = 0.0
-
-    def _log(self, env, instance_name, status, category, message):
-        self.messages.append((STATUS_LABELS[status], category.decode(), message.decode()))
 
     def initialize(self, setpoint=100.0, start_time=0.0, **parameters):
         """setupExperiment, parameters and setpoint, enter/exit initialization mode."""
