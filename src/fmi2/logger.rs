@@ -120,3 +120,33 @@ pub fn emit_to(
 pub fn c_string(text: &str) -> CString {
     CString::new(text.replace('\0', " ")).unwrap_or_default()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn logger(on: bool) -> Logger {
+        Logger::new(None, std::ptr::null_mut(), c_string("t"), on)
+    }
+
+    fn names(list: &[&str]) -> Vec<String> {
+        list.iter().map(|s| s.to_string()).collect()
+    }
+
+    #[test]
+    fn set_debug_logging_follows_the_standard() {
+        let mut l = logger(true);
+        assert!(l.category_enabled(LOG_EVENTS));
+        l.set_debug_logging(false, &names(&[LOG_EVENTS])).unwrap();
+        assert!(!l.category_enabled(LOG_EVENTS), "switching a category off wins over logging on");
+        l.set_debug_logging(true, &names(&["logStatusWarning"])).unwrap();
+        assert!(l.category_enabled("logStatusWarning") && !l.category_enabled(LOG_EVENTS), "a list enables exactly those");
+        l.set_debug_logging(true, &[]).unwrap();
+        assert!(l.category_enabled(LOG_EVENTS));
+        l.set_debug_logging(false, &names(&[LOG_ALL])).unwrap();
+        assert!(!l.category_enabled(LOG_EVENTS) && !l.category_enabled("logStatusError"));
+        let before = l.enabled.clone();
+        assert!(l.set_debug_logging(true, &names(&[LOG_EVENTS, "noSuchCategory"])).is_err());
+        assert_eq!(l.enabled, before, "an unknown name changes nothing");
+    }
+}

@@ -115,6 +115,16 @@ impl Parameters {
                 &format!("must not exceed maxSetpoint = {}", self.max_setpoint),
             ));
         }
+        // Largest steady operating point: its power and hydrogen flow must be representable.
+        let current = self.gain * self.max_setpoint;
+        let power = (self.voltage_intercept + self.ohmic_resistance * current) * current;
+        if !(power.is_finite() && (self.h2_coefficient * current).is_finite()) {
+            return Err(err(
+                "gain",
+                self.gain,
+                "with maxSetpoint, voltageIntercept, ohmicResistance and h2Coefficient gives a non-finite power or hydrogen flow",
+            ));
+        }
         let separation = (self.tau_pole1 - self.tau_pole2).abs();
         if separation < MIN_RELATIVE_POLE_SEPARATION * self.tau_pole1.max(self.tau_pole2) {
             return Err(err(
@@ -173,7 +183,7 @@ mod tests {
 
     #[test]
     fn each_invalid_value_is_named() {
-        let cases: [(fn(&mut Parameters), &str); 8] = [
+        let cases: [(fn(&mut Parameters), &str); 9] = [
             (|p| p.tau_pole1 = -1.0, "tauPole1"),
             (|p| p.tau_zero = -0.5, "tauZero"),
             (|p| p.gain = 0.0, "gain"),
@@ -182,6 +192,7 @@ mod tests {
             (|p| p.tau_pole2 = p.tau_pole1, "tauPole2"),
             (|p| p.ohmic_resistance = -0.1, "ohmicResistance"),
             (|p| p.nominal_current = f64::INFINITY, "nominalCurrent"),
+            (|p| p.gain = 1e200, "gain"),
         ];
         for (mutate, name) in cases {
             let mut p = Parameters::default();
