@@ -201,26 +201,35 @@ impl CurrentDynamics {
             e1_len: decay.e1,
             e2_len: decay.e2,
         };
-        let (points, count) = curve.monotone_pieces(h);
+        let (points, count) = curve.monotone_pieces();
         // M: running minimum of h(τ) = I_tf(τ) − rτ; the current is I(τ) = M + rτ.
         let mut m = start;
         let mut out = CurrentIntegrals::default();
         for window in points[..count].windows(2) {
             let (p, q) = (window[0], window[1]);
-            if q <= p {
+            if q.t <= p.t {
                 continue;
             }
-            let (hp, hq) = (curve.h(p), curve.h(q));
+            let (hp, hq) = (curve.h(&p), curve.h(&q));
             if hq >= hp || hq >= m {
                 // h rises (or stays above M): the running minimum holds, the current ramps.
-                self.add_ramp(&mut out, m, p, q);
+                self.add_ramp(&mut out, m, p.t, q.t);
             } else if hp <= m {
-                self.add_track(&mut out, &curve, dev1, dev2, p, q, decay);
+                self.add_track(&mut out, &curve, dev1, dev2, &p, q.t, decay);
                 m = hq;
             } else {
-                let crossing = monotone_root(|t| curve.h_and_slope(t, m), p, q, hp - m, hq - m);
-                self.add_ramp(&mut out, m, p, crossing);
-                self.add_track(&mut out, &curve, dev1, dev2, crossing, q, decay);
+                let crossing = monotone_root(
+                    |t| {
+                        let [v, d1, d2, _] = curve.derivatives(&curve.point(t));
+                        (v - m, d1, d2)
+                    },
+                    p.t,
+                    q.t,
+                    hp - m,
+                    hq - m,
+                );
+                self.add_ramp(&mut out, m, p.t, crossing);
+                self.add_track(&mut out, &curve, dev1, dev2, &curve.point(crossing), q.t, decay);
                 m = hq;
             }
         }
@@ -237,7 +246,7 @@ impl CurrentDynamics {
         out.ramp_time += length;
     }
 
-    /// Tracking segment [s0, s1] of a step whose modal deviations were δ1, δ2 at τ = 0;
+    /// Tracking segment [start, s1] of a step whose modal deviations were δ1, δ2 at τ = 0;
     /// `step` is the decay over the whole step, reused when the segment is the whole step.
     #[allow(clippy::too_many_arguments)]
     fn add_track(
@@ -246,16 +255,24 @@ impl CurrentDynamics {
         curve: &Curve,
         dev1: f64,
         dev2: f64,
-        s0: f64,
+        start: &Point,
         s1: f64,
         step: &Decay,
     ) {
-        let (e1, e2) = curve.decays(s0);
-        let segment = if s0 == 0.0 && s1 == curve.len { *step } else { self.decay(s1 - s0) };
-        let (charge, squared) = self.track_integrals(curve.y, dev1 * e1, dev2 * e2, s1 - s0, &segment);
+        let length = s1 - start.t;
+        let segment = if start.t == 0.0 && s1 == curve.len { *step } else { self.decay(length) };
+        let (charge, squared) = self.track_integrals(curve.y, dev1 * start.e1, dev2 * start.e2, length, &segment);
         out.charge += charge;
         out.current_squared += squared;
     }
+}
+
+/// A time τ in the step with both mode decays e^(−λi τ), evaluated once.
+#[derive(Clone, Copy, Debug)]
+struct Point {
+    t: f64,
+    e1: f64,
+    e2: f64,
 }
 
 /// h(τ) = I_tf(τ) − rτ = y + A e^(−λ1 τ) + B e^(−λ2 τ) − rτ over one step [A].
@@ -273,61 +290,65 @@ struct Curve {
 }
 
 impl Curve {
-    /// (e^(−λ1 τ), e^(−λ2 τ)); free at the ends of the step.
-    fn decays(&self, t: f64) -> (f64, f64) {
+    /// The point at τ; free at the ends of the step.
+    fn point(&self, t: f64) -> Point {
         if t == 0.0 {
-            (1.0, 1.0)
+            Point { t, e1: 1.0, e2: 1.0 }
         } else if t == self.len {
-            (self.e1_len, self.e2_len)
+            Point { t, e1: self.e1_len, e2: self.e2_len }
         } else {
-            ((-self.l1 * t).exp(), (-self.l2 * t).exp())
+            Point { t, e1: (-self.l1 * t).exp(), e2: (-self.l2 * t).exp() }
         }
     }
 
-    /// (A e^(−λ1 τ), B e^(−λ2 τ)).
-    fn exps(&self, t: f64) -> (f64, f64) {
-        let (e1, e2) = self.decays(t);
-        (self.amp_a * e1, self.amp_b * e2)
+    /// h(τ) [A].
+    fn h(&self, p: &Point) -> f64 {
+        self.y + self.amp_a * p.e1 + self.amp_b * p.e2 - self.r * p.t
     }
 
-    fn h(&self, t: f64) -> f64 {
-        let (ea, eb) = self.exps(t);
-        self.y + ea + eb - self.r * t
+    /// h and its first three derivatives at a point.
+    fn derivatives(&self, p: &Point) -> [f64; 4] {
+        let (ea, eb) = (self.amp_a * p.e1, self.amp_b * p.e2);
+        let (l1, l2) = (self.l1, self.l2);
+        [
+            self.y + ea + eb - self.r * p.t,
+            -l1 * ea - l2 * eb - self.r,
+            l1 * l1 * ea + l2 * l2 * eb,
+            -l1 * l1 * l1 * ea - l2 * l2 * l2 * eb,
+        ]
     }
 
-    /// (h(τ) − level, h'(τ)).
-    fn h_and_slope(&self, t: f64, level: f64) -> (f64, f64) {
-        let (ea, eb) = self.exps(t);
-        (self.y + ea + eb - self.r * t - level, -self.l1 * ea - self.l2 * eb - self.r)
-    }
-
-    /// (h'(τ), h''(τ)).
-    fn slope_and_curvature(&self, t: f64) -> (f64, f64) {
-        let (ea, eb) = self.exps(t);
-        (-self.l1 * ea - self.l2 * eb - self.r, self.l1 * self.l1 * ea + self.l2 * self.l2 * eb)
-    }
-
-    /// Break points 0 = p0 < … < pk = len such that h is monotone on each piece (k ≤ 4),
-    /// as a fixed array and the number of points used.
-    fn monotone_pieces(&self, len: f64) -> ([f64; 5], usize) {
+    /// Points 0 = p0 < … < pk = len such that h is monotone between neighbours (k ≤ 4).
+    fn monotone_pieces(&self) -> ([Point; 5], usize) {
         // h'' = λ1² A e^(−λ1 τ) + λ2² B e^(−λ2 τ) vanishes at most once, where A·B < 0;
         // between 0, that point and len, h' is monotone and has at most one zero.
         let mut inflection = None;
         if self.amp_a * self.amp_b < 0.0 {
             let ratio = -(self.l2 * self.l2 * self.amp_b) / (self.l1 * self.l1 * self.amp_a);
             let t = ratio.ln() / (self.l2 - self.l1);
-            if t > 0.0 && t < len {
-                inflection = Some(t);
+            if t > 0.0 && t < self.len {
+                inflection = Some(self.point(t));
             }
         }
-        let mut points = [0.0; 5];
+        let first = self.point(0.0);
+        let mut points = [first; 5];
         let mut count = 1;
-        let mut p = 0.0;
-        let mut slope_p = self.slope_and_curvature(0.0).0;
-        for q in inflection.into_iter().chain(std::iter::once(len)) {
-            let slope_q = self.slope_and_curvature(q).0;
+        let mut p = first;
+        let mut slope_p = self.derivatives(&p)[1];
+        for q in inflection.into_iter().chain(std::iter::once(self.point(self.len))) {
+            let slope_q = self.derivatives(&q)[1];
             if (slope_p < 0.0 && slope_q > 0.0) || (slope_p > 0.0 && slope_q < 0.0) {
-                points[count] = monotone_root(|t| self.slope_and_curvature(t), p, q, slope_p, slope_q);
+                let t = monotone_root(
+                    |t| {
+                        let [_, d1, d2, d3] = self.derivatives(&self.point(t));
+                        (d1, d2, d3)
+                    },
+                    p.t,
+                    q.t,
+                    slope_p,
+                    slope_q,
+                );
+                points[count] = self.point(t);
                 count += 1;
             }
             points[count] = q;

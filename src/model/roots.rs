@@ -1,9 +1,11 @@
 //! Root of a function that is monotone on a bracket, to full double precision.
 
 /// Root of `f` on [lo, hi], where `f` is monotone and `f_lo`, `f_hi` (its values at the ends)
-/// do not share a sign. `f(t)` returns (value, derivative). Newton steps that leave the
-/// shrinking bracket are replaced by bisection, so it always converges.
-pub fn monotone_root(f: impl Fn(f64) -> (f64, f64), lo: f64, hi: f64, f_lo: f64, f_hi: f64) -> f64 {
+/// do not share a sign. `f(t)` returns (value, first derivative, second derivative).
+///
+/// Halley steps (cubic convergence) inside the shrinking bracket; a step that leaves the
+/// bracket is replaced by bisection, so it always converges.
+pub fn monotone_root(f: impl Fn(f64) -> (f64, f64, f64), lo: f64, hi: f64, f_lo: f64, f_hi: f64) -> f64 {
     if f_lo == 0.0 {
         return lo;
     }
@@ -17,8 +19,9 @@ pub fn monotone_root(f: impl Fn(f64) -> (f64, f64), lo: f64, hi: f64, f_lo: f64,
     if !(x > a && x < b) {
         x = 0.5 * (a + b);
     }
+    let mut previous_step = f64::INFINITY;
     for _ in 0..200 {
-        let (fx, dfx) = f(x);
+        let (fx, d1, d2) = f(x);
         if fx == 0.0 {
             return x;
         }
@@ -27,16 +30,27 @@ pub fn monotone_root(f: impl Fn(f64) -> (f64, f64), lo: f64, hi: f64, f_lo: f64,
         } else {
             b = x;
         }
-        let newton = x - fx / dfx;
-        // Newton converges quadratically: once its step is below 1e-9 of the bracket, the
-        // step itself lands within rounding of the root.
-        if (newton - x).abs() <= 1e-9 * (hi - lo) && newton >= a && newton <= b {
-            return newton;
-        }
         if b - a <= 2.0 * f64::EPSILON * a.abs().max(b.abs()) {
             return 0.5 * (a + b);
         }
-        x = if newton > a && newton < b { newton } else { 0.5 * (a + b) };
+        // Far from the root (a Newton step would leave the bracket): bisect.
+        let newton = x - fx / d1;
+        if !(newton > a && newton < b) {
+            x = 0.5 * (a + b);
+            previous_step = f64::INFINITY;
+            continue;
+        }
+        let halley = x - 2.0 * fx * d1 / (2.0 * d1 * d1 - fx * d2);
+        let next = if halley > a && halley < b { halley } else { newton };
+        let step = (next - x).abs();
+        // In the cubic (or quadratic) regime, seen as a step far below the previous one, a
+        // step below 1e-7 of the bracket lands within rounding of the root: take it and stop.
+        let converged = step <= 1e-7 * (hi - lo) && step <= 1e-3 * previous_step;
+        if converged || step <= 4.0 * f64::EPSILON * x.abs() {
+            return next;
+        }
+        previous_step = step;
+        x = next;
     }
     x
 }
@@ -47,12 +61,13 @@ mod tests {
 
     #[test]
     fn finds_roots_of_monotone_functions() {
-        let r = monotone_root(|t| (t * t - 2.0, 2.0 * t), 0.0, 2.0, -2.0, 2.0);
+        let r = monotone_root(|t| (t * t - 2.0, 2.0 * t, 2.0), 0.0, 2.0, -2.0, 2.0);
         assert!((r - 2f64.sqrt()).abs() < 4e-16);
-        let r = monotone_root(|t| ((-t).exp() - 0.5, -(-t).exp()), 0.0, 10.0, 0.5, (-10f64).exp() - 0.5);
+        let e = |t: f64| (-t).exp();
+        let r = monotone_root(|t| (e(t) - 0.5, -e(t), e(t)), 0.0, 10.0, 0.5, e(10.0) - 0.5);
         assert!((r - 2f64.ln()).abs() < 4e-16);
-        // A flat-then-steep function where Newton overshoots: bisection takes over.
-        let r = monotone_root(|t| (t.powi(9) - 1e-3, 9.0 * t.powi(8)), 0.0, 3.0, -1e-3, 3f64.powi(9));
+        // A flat-then-steep function where the local steps overshoot: bisection takes over.
+        let r = monotone_root(|t| (t.powi(9) - 1e-3, 9.0 * t.powi(8), 72.0 * t.powi(7)), 0.0, 3.0, -1e-3, 3f64.powi(9));
         assert!((r - 1e-3f64.powf(1.0 / 9.0)).abs() < 1e-14);
     }
 }
