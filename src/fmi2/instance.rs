@@ -119,13 +119,16 @@ impl Instance {
                 parameter_mut(&mut params, var).map(|v| *v).ok_or_else(|| format!("{} is not a parameter", var.name()))
             }
             Causality::Output => {
-                let module = match &self.module {
-                    Some(m) => m.clone(),
+                let value = match &self.module {
+                    Some(module) => output(var, module),
                     // In initialization mode outputs follow from the current start values.
-                    None => Module::new(self.params, self.setpoint)
-                        .map_err(|e| format!("{} cannot be computed yet: {e}", var.name()))?,
+                    None => output(
+                        var,
+                        &Module::new(self.params, self.setpoint)
+                            .map_err(|e| format!("{} cannot be computed yet: {e}", var.name()))?,
+                    ),
                 };
-                output(var, &module).ok_or_else(|| format!("{} is not an output", var.name()))
+                value.ok_or_else(|| format!("{} is not an output", var.name()))
             }
         }
     }
