@@ -68,8 +68,13 @@ fn guard(c: fmi2Component, call: Call, body: impl FnOnce(&mut Instance) -> CallR
 /// # Safety
 /// `c` must be null or a pointer returned by [`fmi2Instantiate`] and not yet freed.
 unsafe fn instance_mut<'a>(c: fmi2Component) -> Option<&'a mut Instance> {
-    let instance = unsafe { (c as *mut Instance).as_mut() }?;
-    instance.is_valid().then_some(instance)
+    let ptr = c as *mut Instance;
+    // SAFETY: non-null pointers from the importer point to memory of an instance's size.
+    if ptr.is_null() || !unsafe { Instance::has_magic(ptr) } {
+        return None;
+    }
+    // SAFETY: aligned, and the magic says it is a live instance made by fmi2Instantiate.
+    unsafe { ptr.as_mut() }
 }
 
 /// A slice from a C array; null is only accepted for an empty array.
@@ -377,11 +382,16 @@ const _: sys::fmi2SetStringTYPE = Some(fmi2SetString);
 /// # Safety
 /// `s` must be null or a pointer made by this library and not yet freed.
 unsafe fn saved<'a>(s: fmi2FMUstate) -> Result<&'a mut SavedState, Failure> {
-    match unsafe { (s as *mut SavedState).as_mut() } {
-        Some(state) if state.is_valid() => Ok(state),
-        Some(_) => Err(error("FMUstate was not made by this FMU")),
-        None => Err(error("FMUstate is a null pointer")),
+    let ptr = s as *mut SavedState;
+    if ptr.is_null() {
+        return Err(error("FMUstate is a null pointer"));
     }
+    // SAFETY: non-null pointers from the importer point to memory of a state's size.
+    if !unsafe { SavedState::has_magic(ptr) } {
+        return Err(error("FMUstate was not made by this FMU"));
+    }
+    // SAFETY: aligned, and the magic says it is a state made by this library.
+    Ok(unsafe { &mut *ptr })
 }
 
 /// Stores `state` where `slot` points: over an existing state of ours, or in a new one.

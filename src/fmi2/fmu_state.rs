@@ -46,9 +46,13 @@ impl SavedState {
         SavedState { magic: SAVED_MAGIC, fmi_state, params, setpoint, excursion, time, module }
     }
 
-    /// Whether this memory holds a state made by this FMU (a cheap guard against foreign pointers).
-    pub fn is_valid(&self) -> bool {
-        self.magic == SAVED_MAGIC
+    /// Whether `ptr` is aligned and its memory carries a saved state's magic (a cheap guard
+    /// against foreign pointers; reads only the magic word, as raw bytes).
+    ///
+    /// # Safety
+    /// `ptr` must be non-null and point to at least `size_of::<SavedState>()` readable bytes.
+    pub unsafe fn has_magic(ptr: *const SavedState) -> bool {
+        ptr.is_aligned() && unsafe { std::ptr::addr_of!((*ptr).magic).read_unaligned() } == SAVED_MAGIC
     }
 
     /// Marks the memory as no longer a state, just before it is freed.

@@ -51,9 +51,13 @@ impl Instance {
         }
     }
 
-    /// Whether the memory holds a live instance (a cheap guard against foreign pointers).
-    pub fn is_valid(&self) -> bool {
-        self.magic == INSTANCE_MAGIC
+    /// Whether `ptr` is aligned and its memory carries a live instance's magic (a cheap
+    /// guard against foreign pointers; reads only the magic word, as raw bytes).
+    ///
+    /// # Safety
+    /// `ptr` must be non-null and point to at least `size_of::<Instance>()` readable bytes.
+    pub unsafe fn has_magic(ptr: *const Instance) -> bool {
+        ptr.is_aligned() && unsafe { std::ptr::addr_of!((*ptr).magic).read_unaligned() } == INSTANCE_MAGIC
     }
 
     /// Marks the memory as no longer an instance, just before it is freed.

@@ -35,6 +35,8 @@ pub enum StepError {
     NonFiniteSetpoint(f64),
     /// The step size [s] is not a finite positive number.
     InvalidStepSize(f64),
+    /// A step of this size [s] would take the totals past the largest representable number.
+    Overflow(f64),
 }
 
 impl fmt::Display for StepError {
@@ -42,6 +44,7 @@ impl fmt::Display for StepError {
         match self {
             StepError::NonFiniteSetpoint(v) => write!(f, "setpoint = {v} % is not a finite number"),
             StepError::InvalidStepSize(h) => write!(f, "step size = {h} s must be finite and > 0"),
+            StepError::Overflow(h) => write!(f, "a step of {h} s would overflow the energy or hydrogen totals"),
         }
     }
 }
@@ -100,12 +103,17 @@ impl Module {
             return Err(StepError::InvalidStepSize(h));
         }
         let u = self.params.clamp_setpoint(setpoint);
+        let mut current = self.state.current;
         let CurrentIntegrals { charge, current_squared, ramp_time } =
-            self.dynamics.advance(&mut self.state.current, u, h, &mut self.factors);
+            self.dynamics.advance(&mut current, u, h, &mut self.factors);
         let p = &self.params;
-        self.state.energy += p.voltage_intercept * charge + p.ohmic_resistance * current_squared;
-        self.state.h2_produced += self.h2_per_coulomb * charge;
-        self.state.time += h;
+        let energy = self.state.energy + p.voltage_intercept * charge + p.ohmic_resistance * current_squared;
+        let h2_produced = self.state.h2_produced + self.h2_per_coulomb * charge;
+        let time = self.state.time + h;
+        if !(energy.is_finite() && h2_produced.is_finite() && time.is_finite() && current.current.is_finite()) {
+            return Err(StepError::Overflow(h));
+        }
+        self.state = ModuleState { time, current, energy, h2_produced };
         Ok(StepReport { applied_setpoint: u, ramp_time })
     }
 
@@ -204,6 +212,7 @@ mod tests {
         assert!(m.step(80.0, -1.0).is_err());
         assert!(m.step(80.0, 0.0).is_err());
         assert!(m.step(80.0, f64::NAN).is_err());
+        assert!(matches!(m.step(80.0, 1e307), Err(StepError::Overflow(_))));
         assert_eq!(*m.state(), before);
     }
 }

@@ -136,6 +136,19 @@ impl Parameters {
                 ),
             ));
         }
+        // Modal weights a = (τz − τp1)/(τp2 − τp1), b = 1 − a: the exact integrals of I² scale
+        // with a²·τp1 and b²·τp2 times the squared current, which must stay representable.
+        let (t1, t2) = (self.tau_pole1, self.tau_pole2);
+        let a = (self.tau_zero - t1) / (t2 - t1);
+        let b = 1.0 - a;
+        let i2 = current * current;
+        if !((a * a * t1 * i2).is_finite() && (b * b * t2 * i2).is_finite() && (a * b * t1 * i2).is_finite()) {
+            return Err(err(
+                "tauZero",
+                self.tau_zero,
+                &format!("with tauPole1 = {t1} s and tauPole2 = {t2} s gives modal weights too large to integrate"),
+            ));
+        }
         Ok(())
     }
 
