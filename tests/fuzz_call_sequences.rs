@@ -89,6 +89,7 @@ enum Op {
     GarbageState,
     IntegerCall { vr: u32 },
     Unsupported { which: u8 },
+    InputDerivative { vr: u32, order: i32, value: f64 },
     Status { kind: u32 },
 }
 
@@ -127,7 +128,9 @@ fn op() -> impl Strategy<Value = Op> {
         1 => Just(Op::GarbageComponent),
         1 => Just(Op::GarbageState),
         1 => prop_oneof![Just(0u32), Just(5u32)].prop_map(|vr| Op::IntegerCall { vr }),
-        1 => (0u8..4).prop_map(|which| Op::Unsupported { which }),
+        1 => (1u8..4).prop_map(|which| Op::Unsupported { which }),
+        3 => (value_reference(), prop_oneof![4 => Just(1i32), 1 => Just(0i32), 1 => Just(2i32)], prop_oneof![4 => -3.0..3.0f64, 1 => Just(f64::NAN)])
+            .prop_map(|(vr, order, value)| Op::InputDerivative { vr, order, value }),
         1 => (0u32..5).prop_map(|kind| Op::Status { kind }),
     ]
 }
@@ -398,12 +401,21 @@ impl Harness {
                     let order = [1i32];
                     let mut x = 0.0;
                     let s = match which {
-                        0 => fmi2SetRealInputDerivatives(c, vrs.as_ptr(), 1, order.as_ptr(), &1.0),
                         1 => fmi2GetRealOutputDerivatives(c, vrs.as_ptr(), 1, order.as_ptr(), &mut x),
                         2 => fmi2GetDirectionalDerivative(c, vrs.as_ptr(), 1, vrs.as_ptr(), 1, &1.0, &mut x),
                         _ => fmi2CancelStep(c),
                     };
                     prop_assert!(!is_ok(s));
+                }
+                Op::InputDerivative { vr, order, value } => {
+                    let vrs = [*vr];
+                    let orders = [*order];
+                    let s = fmi2SetRealInputDerivatives(c, vrs.as_ptr(), 1, orders.as_ptr(), value);
+                    let valid = self.allowed(&[Instantiated, Init, Step])
+                        && *vr == RealVariable::Setpoint.value_reference()
+                        && *order == 1
+                        && value.is_finite();
+                    prop_assert_eq!(is_ok(s), valid, "{:?} in {:?}", op, self.view.state);
                 }
                 Op::Status { kind } => {
                     let mut s_out = OK;

@@ -22,8 +22,8 @@ use crate::model_description::{CAN_GET_AND_SET_FMU_STATE, CAN_INTERPOLATE_INPUTS
 use crate::model_description::{CAN_RUN_ASYNCHRONOUSLY, PROVIDES_DIRECTIONAL_DERIVATIVE};
 
 // What the model description promises must match what is implemented below.
-const _: () = assert!(CAN_GET_AND_SET_FMU_STATE && CAN_SERIALIZE_FMU_STATE);
-const _: () = assert!(!CAN_INTERPOLATE_INPUTS && !PROVIDES_DIRECTIONAL_DERIVATIVE && !CAN_RUN_ASYNCHRONOUSLY);
+const _: () = assert!(CAN_GET_AND_SET_FMU_STATE && CAN_SERIALIZE_FMU_STATE && CAN_INTERPOLATE_INPUTS);
+const _: () = assert!(!PROVIDES_DIRECTIONAL_DERIVATIVE && !CAN_RUN_ASYNCHRONOUSLY);
 
 const ERROR: fmi2Status = sys::fmi2Status_fmi2Error;
 
@@ -519,16 +519,22 @@ const _: sys::fmi2GetDirectionalDerivativeTYPE = Some(fmi2GetDirectionalDerivati
 
 // ---------------------------------------------------------------- co-simulation
 
-/// Not provided (canInterpolateInputs = false).
+/// First time derivatives of Real inputs at the current communication point
+/// (canInterpolateInputs): the next fmi2DoStep integrates the linearly changing input exactly.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
     c: fmi2Component,
-    _vr: *const sys::fmi2ValueReference,
-    _nvr: usize,
-    _order: *const sys::fmi2Integer,
-    _value: *const fmi2Real,
+    vr: *const sys::fmi2ValueReference,
+    nvr: usize,
+    order: *const sys::fmi2Integer,
+    value: *const fmi2Real,
 ) -> fmi2Status {
-    guard(c, Call::SetRealInputDerivatives, |_| not_supported("fmi2SetRealInputDerivatives"))
+    guard(c, Call::SetRealInputDerivatives, |inst| {
+        // SAFETY: the importer passes nvr value references, orders and values.
+        let (vrs, orders, values) =
+            unsafe { (slice(vr, nvr, "vr")?, slice(order, nvr, "order")?, slice(value, nvr, "value")?) };
+        inst.set_input_derivatives(vrs, orders, values)
+    })
 }
 const _: sys::fmi2SetRealInputDerivativesTYPE = Some(fmi2SetRealInputDerivatives);
 

@@ -12,7 +12,9 @@ use super::state_machine::FmiState;
 
 const MAGIC: &[u8; 8] = b"AEMFMUST";
 /// Version of the serialised format; bump it whenever the payload changes.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
+/// Number of Reals in the payload.
+const REALS: usize = 20;
 const SAVED_MAGIC: u64 = 0x4145_4d5f_5354_4154; // "AEM_STAT"
 
 /// A complete copy of an instance's state.
@@ -25,6 +27,8 @@ pub struct SavedState {
     pub params: Parameters,
     /// Input value as last set [%].
     pub setpoint: f64,
+    /// Its derivative for the next step [%/s].
+    pub setpoint_slope: f64,
     /// Whether the setpoint is outside the window (a warning was logged).
     pub excursion: bool,
     /// Communication time [s].
@@ -39,11 +43,12 @@ impl SavedState {
         fmi_state: FmiState,
         params: Parameters,
         setpoint: f64,
+        setpoint_slope: f64,
         excursion: bool,
         time: f64,
         module: Option<ModuleState>,
     ) -> Self {
-        SavedState { magic: SAVED_MAGIC, fmi_state, params, setpoint, excursion, time, module }
+        SavedState { magic: SAVED_MAGIC, fmi_state, params, setpoint, setpoint_slope, excursion, time, module }
     }
 
     /// Whether `ptr` is aligned and its memory carries a saved state's magic (a cheap guard
@@ -60,7 +65,7 @@ impl SavedState {
         self.magic = 0;
     }
 
-    fn reals(&self) -> [f64; 19] {
+    fn reals(&self) -> [f64; REALS] {
         let p = &self.params;
         let m = self.module.unwrap_or(ModuleState {
             time: 0.0,
@@ -88,6 +93,7 @@ impl SavedState {
             m.current.current,
             m.energy,
             m.h2_produced,
+            self.setpoint_slope,
         ]
     }
 
@@ -137,7 +143,7 @@ impl SavedState {
         let fmi_state = FmiState::from_code(r.u8()?).ok_or("serialised state has an unknown FMI state")?;
         let excursion = r.flag()?;
         let has_module = r.flag()?;
-        let mut x = [0.0; 19];
+        let mut x = [0.0; REALS];
         for v in x.iter_mut() {
             *v = r.f64()?;
         }
@@ -166,7 +172,7 @@ impl SavedState {
         if module.is_some() {
             params.validate().map_err(|e| format!("serialised state holds invalid parameters: {e}"))?;
         }
-        Ok(SavedState::new(fmi_state, params, x[0], excursion, x[1], module))
+        Ok(SavedState::new(fmi_state, params, x[0], x[19], excursion, x[1], module))
     }
 }
 
@@ -215,7 +221,7 @@ mod tests {
             energy: 1.0e6,
             h2_produced: 33.0,
         };
-        SavedState::new(FmiState::StepComplete, Parameters::default(), 73.0, false, 112.5, Some(module))
+        SavedState::new(FmiState::StepComplete, Parameters::default(), 73.0, -0.25, false, 112.5, Some(module))
     }
 
     #[test]

@@ -31,6 +31,8 @@ pub struct Instance {
     pub state: FmiState,
     params: Parameters,
     setpoint: f64,
+    /// d(setpoint)/dt for the next step [%/s], from fmi2SetRealInputDerivatives.
+    setpoint_slope: f64,
     excursion: bool,
     time: f64,
     module: Option<Module>,
@@ -45,6 +47,7 @@ impl Instance {
             state: FmiState::Instantiated,
             params: Parameters::default(),
             setpoint: RealVariable::Setpoint.start().unwrap_or(100.0),
+            setpoint_slope: 0.0,
             excursion: false,
             time: 0.0,
             module: None,
@@ -174,12 +177,40 @@ impl Instance {
             }
         }
         self.params = params;
+        if vrs.contains(&RealVariable::Setpoint.value_reference()) {
+            // A new input value starts a new interpolation: its derivative must be set again.
+            self.setpoint_slope = 0.0;
+        }
         self.setpoint = setpoint;
         if self.state == FmiState::StepComplete {
             Ok(self.update_excursion())
         } else {
             Ok(Status::Ok)
         }
+    }
+
+    /// fmi2SetRealInputDerivatives: first derivatives of the input for the next step; all
+    /// values are checked before any is applied.
+    pub fn set_input_derivatives(&mut self, vrs: &[u32], orders: &[i32], values: &[f64]) -> CallResult {
+        let mut slope = self.setpoint_slope;
+        for ((vr, order), value) in vrs.iter().zip(orders).zip(values) {
+            let var = known_variable(*vr)?;
+            if var.causality() != Causality::Input {
+                return Err(error(format!("{} is not an input: only inputs take derivatives", var.name())));
+            }
+            if *order != 1 {
+                return Err(error(format!(
+                    "derivative order {order} of {} refused: only first derivatives are interpolated",
+                    var.name()
+                )));
+            }
+            if !value.is_finite() {
+                return Err(error(format!("d{}/dt = {value} refused: not a finite number", var.name())));
+            }
+            slope = *value;
+        }
+        self.setpoint_slope = slope;
+        Ok(Status::Ok)
     }
 
     /// Logs a warning when the setpoint leaves the operating window (once per excursion).
@@ -220,8 +251,11 @@ impl Instance {
         let Some(module) = self.module.as_mut() else {
             return Err(error("the instance is not initialised"));
         };
-        module.step(self.setpoint, h).map_err(|e| error(e.to_string()))?;
+        // The input is u(t) = setpoint + slope·(t − t_c) over this step (slope 0 unless the
+        // master set a derivative at this communication point).
+        module.step_interpolated(self.setpoint, self.setpoint_slope, h).map_err(|e| error(e.to_string()))?;
         self.time += h;
+        self.setpoint_slope = 0.0;
         Ok(Status::Ok)
     }
 
@@ -236,6 +270,7 @@ impl Instance {
             self.state,
             self.params,
             self.setpoint,
+            self.setpoint_slope,
             self.excursion,
             self.time,
             self.module.as_ref().map(|m| *m.state()),
@@ -260,6 +295,7 @@ impl Instance {
         self.state = saved.fmi_state;
         self.params = saved.params;
         self.setpoint = saved.setpoint;
+        self.setpoint_slope = saved.setpoint_slope;
         self.excursion = saved.excursion;
         self.time = saved.time;
         self.module = module;

@@ -44,6 +44,8 @@ pub struct CurrentIntegrals {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CurrentDynamics {
     gain: f64,
+    tau1: f64,
+    tau2: f64,
     lambda1: f64,
     lambda2: f64,
     a: f64,
@@ -92,6 +94,8 @@ impl CurrentDynamics {
         let (lambda1, lambda2) = (1.0 / t1, 1.0 / t2);
         CurrentDynamics {
             gain: params.gain,
+            tau1: t1,
+            tau2: t2,
             lambda1,
             lambda2,
             a,
@@ -122,22 +126,32 @@ impl CurrentDynamics {
         Decay { e1: 1.0 + m1, e2: 1.0 + m2, d1: -m1, d2: -m2, d12: -(m1 + m2 + m1 * m2) }
     }
 
-    /// ∫I dt and ∫I² dt over a tracking segment that starts with modal deviations
-    /// δi = zi − y and lasts as long as `decay` says. With Δi = δi(1 − e^(−λi L)):
-    ///   ∫I_tf    = y L + a τp1 Δ1 + b τp2 Δ2
-    ///   ∫I_tf²   = y² L + 2y(a τp1 Δ1 + b τp2 Δ2) + a² τp1/2 · Δ1(δ1 + δ1 e^(−λ1 L))
-    ///            + b² τp2/2 · Δ2(δ2 + δ2 e^(−λ2 L)) + 2ab/(λ1+λ2) · δ1 δ2 (1 − e^(−(λ1+λ2) L))
+    /// ∫I dt and ∫I² dt over a tracking segment of length L on which
+    /// I_tf(σ) = y + sσ + a δ1 e^(−λ1 σ) + b δ2 e^(−λ2 σ). With Δi = δi(1 − e^(−λi L)) and
+    /// Ji = ∫₀ᴸ σ e^(−λi σ) dσ = τi² (1 − (1 + λi L) e^(−λi L)):
+    ///   ∫I_tf  = y L + s L²/2 + a τp1 Δ1 + b τp2 Δ2
+    ///   ∫I_tf² = ∫(y + sσ)² + 2y(a τp1 Δ1 + b τp2 Δ2) + 2s(a δ1 J1 + b δ2 J2)
+    ///          + a² τp1/2 · Δ1(δ1 + δ1 e^(−λ1 L)) + b² τp2/2 · Δ2(δ2 + δ2 e^(−λ2 L))
+    ///          + 2ab/(λ1+λ2) · δ1 δ2 (1 − e^(−(λ1+λ2) L))
     #[inline]
-    fn track_integrals(&self, y: f64, dev1: f64, dev2: f64, length: f64, decay: &Decay) -> (f64, f64) {
+    #[allow(clippy::too_many_arguments)]
+    fn track_integrals(&self, y: f64, s: f64, dev1: f64, dev2: f64, length: f64, decay: &Decay) -> (f64, f64) {
         let drop1 = dev1 * decay.d1;
         let drop2 = dev2 * decay.d2;
         let lin = self.k1 * drop1 + self.k2 * drop2;
-        let charge = y * length + lin;
-        let squared = y * y * length
+        let mut charge = y * length + lin;
+        let mut squared = y * y * length
             + 2.0 * y * lin
             + self.k11 * drop1 * (dev1 + dev1 * decay.e1)
             + self.k22 * drop2 * (dev2 + dev2 * decay.e2)
             + self.k12 * dev1 * dev2 * decay.d12;
+        if s != 0.0 {
+            let (l2, l3) = (length * length, length * length * length);
+            let j1 = self.tau1 * self.tau1 * ramp_moment(self.lambda1 * length, decay.e1);
+            let j2 = self.tau2 * self.tau2 * ramp_moment(self.lambda2 * length, decay.e2);
+            charge += 0.5 * s * l2;
+            squared += y * s * l2 + s * s * l3 / 3.0 + 2.0 * s * (self.a * dev1 * j1 + self.b * dev2 * j2);
+        }
         (charge, squared)
     }
 
@@ -155,23 +169,39 @@ impl CurrentDynamics {
             *factors = StepFactors { h, decay: self.decay(h) };
         }
         let decay = factors.decay;
-        let y = self.gain * u;
-        // I_tf(τ) = y + a δ1 e^(−λ1 τ) + b δ2 e^(−λ2 τ) over the step.
-        let (dev1, dev2) = (state.z1 - y, state.z2 - y);
+        self.advance_segment(state, u, 0.0, h, &decay)
+    }
+
+    /// Advances `state` by `h` > 0 seconds with a setpoint that rises linearly from `u0` [%]
+    /// at `slope` [%/s] (an interpolated input), returning the exact integrals. The caller
+    /// keeps the setpoint inside the operating window over the step.
+    pub fn advance_linear(&self, state: &mut CurrentState, u0: f64, slope: f64, h: f64) -> CurrentIntegrals {
+        self.advance_segment(state, u0, slope, h, &self.decay(h))
+    }
+
+    /// One interval with input u(τ) = u0 + v·τ. Each mode follows
+    ///   zi(τ) = K u0 + s(τ − τi) + δi e^(−λi τ),  s = K v,  δi = zi(0) − K u0 + s τi,
+    /// so I_tf(τ) = y + sτ + a δ1 e^(−λ1 τ) + b δ2 e^(−λ2 τ) with y = K u0 − s(a τp1 + b τp2).
+    #[inline]
+    fn advance_segment(&self, state: &mut CurrentState, u0: f64, v: f64, h: f64, decay: &Decay) -> CurrentIntegrals {
+        let base = self.gain * u0;
+        let s = self.gain * v;
+        let y = base - s * (self.k1 + self.k2);
+        let (dev1, dev2) = (state.z1 - base + s * self.tau1, state.z2 - base + s * self.tau2);
         let tf0 = y + self.a * dev1 + self.b * dev2;
         let tracking = tf0 - state.current <= 1e-12 * tf0.abs().max(1.0);
         // Largest possible slope of I_tf on the step; at most r means the limit never binds.
-        let max_rise = (-self.lambda1 * self.a * dev1).max(0.0) + (-self.lambda2 * self.b * dev2).max(0.0);
-        state.z1 = y + dev1 * decay.e1;
-        state.z2 = y + dev2 * decay.e2;
+        let max_rise = s + (-self.lambda1 * self.a * dev1).max(0.0) + (-self.lambda2 * self.b * dev2).max(0.0);
+        state.z1 = base + s * (h - self.tau1) + dev1 * decay.e1;
+        state.z2 = base + s * (h - self.tau2) + dev2 * decay.e2;
         let tf_end = self.unlimited_current(state);
         if tracking && max_rise <= self.ramp {
-            let (charge, current_squared) = self.track_integrals(y, dev1, dev2, h, &decay);
+            let (charge, current_squared) = self.track_integrals(y, s, dev1, dev2, h, decay);
             state.current = tf_end;
             return CurrentIntegrals { charge, current_squared, ramp_time: 0.0 };
         }
         let start = if tracking { tf0 } else { state.current.min(tf0) };
-        let (integrals, limited_end) = self.limited_step(y, dev1, dev2, start, h, &decay);
+        let (integrals, limited_end) = self.limited_step(y, s, dev1, dev2, start, h, decay);
         // I(h) = r·h + M(h) from the running minimum, never above I_tf(h).
         state.current = limited_end.min(tf_end);
         integrals
@@ -181,9 +211,11 @@ impl CurrentDynamics {
     /// running minimum, and integrate the ramp and tracking segments in closed form.
     /// Returns the integrals and the current r·h + M(h) at the end.
     #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
     fn limited_step(
         &self,
         y: f64,
+        s: f64,
         dev1: f64,
         dev2: f64,
         start: f64,
@@ -194,9 +226,10 @@ impl CurrentDynamics {
             y,
             amp_a: self.a * dev1,
             amp_b: self.b * dev2,
+            s,
             l1: self.lambda1,
             l2: self.lambda2,
-            r: self.ramp,
+            r: self.ramp - s,
             len: h,
             e1_len: decay.e1,
             e2_len: decay.e2,
@@ -261,9 +294,27 @@ impl CurrentDynamics {
     ) {
         let length = s1 - start.t;
         let segment = if start.t == 0.0 && s1 == curve.len { *step } else { self.decay(length) };
-        let (charge, squared) = self.track_integrals(curve.y, dev1 * start.e1, dev2 * start.e2, length, &segment);
+        let y = curve.y + curve.s * start.t;
+        let (charge, squared) = self.track_integrals(y, curve.s, dev1 * start.e1, dev2 * start.e2, length, &segment);
         out.charge += charge;
         out.current_squared += squared;
+    }
+}
+
+/// 1 − (1 + x) e^(−x) for x ≥ 0 (the first moment of a decaying exponential, scaled),
+/// by its series where the closed form would cancel.
+fn ramp_moment(x: f64, e: f64) -> f64 {
+    if x < 0.05 {
+        // Σ_{k≥2} (−1)^k (k − 1) x^k / k!
+        let mut term = x * x / 2.0;
+        let mut sum = 0.0;
+        for k in 2..12 {
+            sum += (k - 1) as f64 * term;
+            term *= -x / (k + 1) as f64;
+        }
+        sum
+    } else {
+        1.0 - (1.0 + x) * e
     }
 }
 
@@ -275,13 +326,16 @@ struct Point {
     e2: f64,
 }
 
-/// h(τ) = I_tf(τ) − rτ = y + A e^(−λ1 τ) + B e^(−λ2 τ) − rτ over one step [A].
+/// h(τ) = I_tf(τ) − rτ = y + A e^(−λ1 τ) + B e^(−λ2 τ) − (r − s)τ over one step [A]
+/// (s: slope of an interpolated input's steady current, 0 for a constant setpoint).
 struct Curve {
     y: f64,
+    s: f64,
     amp_a: f64,
     amp_b: f64,
     l1: f64,
     l2: f64,
+    /// Net slope r − s of the line subtracted from I_tf's exponentials [A/s].
     r: f64,
     /// Step length and e^(−λi len), known from the step factors.
     len: f64,

@@ -104,17 +104,75 @@ impl Module {
         }
         let u = self.params.clamp_setpoint(setpoint);
         let mut current = self.state.current;
-        let CurrentIntegrals { charge, current_squared, ramp_time } =
-            self.dynamics.advance(&mut current, u, h, &mut self.factors);
+        let ints = self.dynamics.advance(&mut current, u, h, &mut self.factors);
+        self.commit(current, ints, h)?;
+        Ok(StepReport { applied_setpoint: u, ramp_time: ints.ramp_time })
+    }
+
+    /// Advances by `h` seconds with a setpoint that changes linearly from `setpoint` [%] at
+    /// `slope` [%/s] over the step (an interpolated input). Where the line leaves the
+    /// operating window the step is split at the crossing and the clamped part held constant,
+    /// so the result is exact.
+    pub fn step_interpolated(&mut self, setpoint: f64, slope: f64, h: f64) -> Result<StepReport, StepError> {
+        if slope == 0.0 {
+            return self.step(setpoint, h);
+        }
+        if !setpoint.is_finite() {
+            return Err(StepError::NonFiniteSetpoint(setpoint));
+        }
+        if !slope.is_finite() {
+            return Err(StepError::NonFiniteSetpoint(slope));
+        }
+        if !(h.is_finite() && h > 0.0) {
+            return Err(StepError::InvalidStepSize(h));
+        }
+        let (lo, hi) = (self.params.min_setpoint, self.params.max_setpoint);
+        // Break points: where u(τ) = setpoint + slope·τ crosses the window's edges.
+        let mut cuts = [0.0, h, h, h];
+        let mut n = 1;
+        for edge in [lo, hi] {
+            let t = (edge - setpoint) / slope;
+            if t > 0.0 && t < h {
+                cuts[n] = t;
+                n += 1;
+            }
+        }
+        cuts[..n].sort_by(f64::total_cmp);
+        cuts[n] = h;
+        let mut current = self.state.current;
+        let (mut charge, mut current_squared, mut ramp_time) = (0.0, 0.0, 0.0);
+        for w in cuts[..=n].windows(2) {
+            let (t0, t1) = (w[0], w[1]);
+            if t1 <= t0 {
+                continue;
+            }
+            let middle = setpoint + slope * 0.5 * (t0 + t1);
+            let ints = if middle > lo && middle < hi {
+                let u0 = self.params.clamp_setpoint(setpoint + slope * t0);
+                self.dynamics.advance_linear(&mut current, u0, slope, t1 - t0)
+            } else {
+                self.dynamics.advance(&mut current, self.params.clamp_setpoint(middle), t1 - t0, &mut self.factors)
+            };
+            charge += ints.charge;
+            current_squared += ints.current_squared;
+            ramp_time += ints.ramp_time;
+        }
+        self.commit(current, CurrentIntegrals { charge, current_squared, ramp_time }, h)?;
+        Ok(StepReport { applied_setpoint: self.params.clamp_setpoint(setpoint + slope * h), ramp_time })
+    }
+
+    /// Adds a step's integrals to the totals and takes its end state, unless a total would
+    /// overflow (then nothing changes).
+    fn commit(&mut self, current: CurrentState, ints: CurrentIntegrals, h: f64) -> Result<(), StepError> {
         let p = &self.params;
-        let energy = self.state.energy + p.voltage_intercept * charge + p.ohmic_resistance * current_squared;
-        let h2_produced = self.state.h2_produced + self.h2_per_coulomb * charge;
+        let energy = self.state.energy + p.voltage_intercept * ints.charge + p.ohmic_resistance * ints.current_squared;
+        let h2_produced = self.state.h2_produced + self.h2_per_coulomb * ints.charge;
         let time = self.state.time + h;
         if !(energy.is_finite() && h2_produced.is_finite() && time.is_finite() && current.current.is_finite()) {
             return Err(StepError::Overflow(h));
         }
         self.state = ModuleState { time, current, energy, h2_produced };
-        Ok(StepReport { applied_setpoint: u, ramp_time })
+        Ok(())
     }
 
     /// The parameters.
@@ -200,6 +258,43 @@ mod tests {
         assert!((m.current() - 0.534 * 60.0).abs() < 1e-12);
         let r = m.step(150.0, 1.0).unwrap();
         assert_eq!(r.applied_setpoint, 100.0);
+    }
+
+    /// Reference for an interpolated input: many short constant steps at the midpoint value
+    /// (second-order accurate in the short step).
+    fn fine_reference(m: &Module, u0: f64, slope: f64, h: f64, fine: f64) -> Module {
+        let mut r = m.clone();
+        let n = (h / fine).round() as usize;
+        for k in 0..n {
+            r.step(u0 + slope * (k as f64 + 0.5) * fine, fine).unwrap();
+        }
+        r
+    }
+
+    #[test]
+    fn interpolated_input_matches_a_fine_step_reference() {
+        // (start setpoint, slope [%/s], step [s]): rising beyond the rate limit, falling,
+        // leaving the window below and above, and crossing the whole window in one step.
+        for &(u0, slope, h) in &[(70.0, 2.0, 10.0), (95.0, -1.5, 20.0), (70.0, -1.0, 30.0), (90.0, 1.0, 30.0), (50.0, 4.0, 20.0)] {
+            let mut m = Module::new(Parameters::default(), 75.0).unwrap();
+            m.step(65.0, 3.0).unwrap(); // not in steady state
+            let reference = fine_reference(&m, u0, slope, h, 1e-4);
+            m.step_interpolated(u0, slope, h).unwrap();
+            assert!((m.current() - reference.current()).abs() < 1e-6, "{u0} {slope}: {} vs {}", m.current(), reference.current());
+            assert!((m.energy() - reference.energy()).abs() < 1e-7 * reference.energy());
+        }
+    }
+
+    #[test]
+    fn interpolated_input_does_not_depend_on_the_step_size() {
+        let mut one = Module::new(Parameters::default(), 62.0).unwrap();
+        let mut many = one.clone();
+        one.step_interpolated(62.0, 1.5, 30.0).unwrap();
+        for k in 0..300 {
+            many.step_interpolated(62.0 + 1.5 * 0.1 * k as f64, 1.5, 0.1).unwrap();
+        }
+        assert!((one.current() - many.current()).abs() < 1e-9, "{} vs {}", one.current(), many.current());
+        assert!((one.energy() - many.energy()).abs() < 1e-9 * one.energy());
     }
 
     #[test]

@@ -87,7 +87,7 @@ FMUTOOL = Path(sys.executable).with_name("fmutool")
 # Serialised FMU state (src/fmi2/fmu_state.rs): magic(8) version(4) payload length(4) payload crc32(4);
 # payload = GUID length(4) GUID, FMI state code(1), excursion flag(1), module flag(1), 19 f64.
 STATE_MAGIC, STATE_VERSION, STATE_LENGTH, STATE_PAYLOAD = 0, 8, 12, 16
-STATE_REALS = 19
+STATE_REALS = 20
 
 # Life-cycle test.
 CYCLES = 1000
@@ -445,7 +445,7 @@ CORRUPTIONS = {
     "truncated-by-one": (lambda blob, g: blob[:-1], ("announces",)),
     "truncated-half": (lambda blob, g: blob[: len(blob) // 2], ("announces",)),
     "extended-by-one": (lambda blob, g: blob + b"\0", ("announces",)),
-    "wrong-version": (_resealed(_set_u32(STATE_VERSION, 2)), ("version 2",)),
+    "wrong-version": (_resealed(_set_u32(STATE_VERSION, 1)), ("version 1",)),
     "other-guid": (_resealed(_other_guid), ("GUID",)),
     "unknown-fmi-state": (_resealed(_set_byte(0, 3)), ("FMI state",)),
     "invalid-flag": (_resealed(_set_byte(1, 7)), ("flag",)),
@@ -831,8 +831,15 @@ BAD_CALLS = [
     BadCall("reset-null-component", S, null_component("fmi2Reset"), words=None),
     BadCall("do-step-foreign-component", S, foreign_component("fmi2DoStep", 0.0, 1.0, 1), words=None),
     # Unsupported functions (model description: no derivatives, no asynchronous steps).
-    BadCall("set-real-input-derivatives", S, plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(1), reals(0.1)),
-            words=("fmi2SetRealInputDerivatives", "not supported")),
+    # Input derivatives (canInterpolateInputs): only the first derivative of the input.
+    BadCall("input-derivative-order-2", S, plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(2), reals(0.1)),
+            words=("fmi2SetRealInputDerivatives", "order 2")),
+    BadCall("input-derivative-of-output", S, plain("fmi2SetRealInputDerivatives", uints(1), 1, ints(1), reals(0.1)),
+            words=("fmi2SetRealInputDerivatives", "current", "not an input")),
+    BadCall("input-derivative-nan", S, plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(1), reals(float("nan"))),
+            words=("fmi2SetRealInputDerivatives", "finite")),
+    BadCall("input-derivative-terminated", TERMINATED, plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(1), reals(0.1)),
+            words=("fmi2SetRealInputDerivatives", "terminated")),
     BadCall("get-real-output-derivatives", S, plain("fmi2GetRealOutputDerivatives", uints(1), 1, ints(1), reals(0.0)),
             words=("fmi2GetRealOutputDerivatives", "not supported")),
     BadCall("get-directional-derivative", S,
