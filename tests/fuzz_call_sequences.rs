@@ -140,12 +140,13 @@ fn op() -> impl Strategy<Value = Op> {
 struct View {
     state: State,
     time: f64,
+    stop: Option<f64>,
     params: Parameters,
 }
 
 impl View {
     fn fresh() -> View {
-        View { state: State::Instantiated, time: 0.0, params: Parameters::default() }
+        View { state: State::Instantiated, time: 0.0, stop: None, params: Parameters::default() }
     }
 }
 
@@ -207,6 +208,7 @@ impl Harness {
                     prop_assert_eq!(is_ok(s), valid, "setup {:?} in {:?}", op, self.view.state);
                     if valid {
                         self.view.time = *start;
+                        self.view.stop = *stop;
                     }
                 }
                 Op::Enter => {
@@ -295,7 +297,10 @@ impl Harness {
                     // The documented contract: the point may differ from the FMU's time by 1e-9
                     // relative (masters sum their steps differently); the FMU keeps its own time.
                     let on_time = (point - self.view.time).abs() <= 1e-9 * self.view.time.abs().max(1.0);
-                    let valid = self.allowed(&[Step]) && on_time && h.is_finite() && *h > 0.0;
+                    // Steps past a defined stopTime are refused (FMI 2.0, section 2.1.6).
+                    let before_stop =
+                        self.view.stop.is_none_or(|stop| self.view.time + h <= stop + 1e-9 * stop.abs().max(1.0));
+                    let valid = self.allowed(&[Step]) && on_time && h.is_finite() && *h > 0.0 && before_stop;
                     if !valid {
                         prop_assert!(!is_ok(s), "doStep {:?} in {:?} must fail", op, self.view.state);
                     } else if *h < 1e6 && moderate(&self.view.params) {

@@ -121,6 +121,17 @@ fn no_variables_of(type_name: &str, vrs: &[u32]) -> CallResult {
     }
 }
 
+/// The standard's name of a status kind.
+fn kind_name(kind: fmi2StatusKind) -> String {
+    match kind {
+        sys::fmi2StatusKind_fmi2DoStepStatus => "fmi2DoStepStatus".into(),
+        sys::fmi2StatusKind_fmi2PendingStatus => "fmi2PendingStatus".into(),
+        sys::fmi2StatusKind_fmi2LastSuccessfulTime => "fmi2LastSuccessfulTime".into(),
+        sys::fmi2StatusKind_fmi2Terminated => "fmi2Terminated".into(),
+        other => format!("unknown status kind {other}"),
+    }
+}
+
 fn not_supported(what: &str) -> CallResult {
     Err(error(format!("{what} is not supported by this FMU (see its model description)")))
 }
@@ -161,7 +172,10 @@ pub unsafe extern "C" fn fmi2Instantiate(
         let text = |p: fmi2String| (!p.is_null()).then(|| unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned());
         let name = text(instanceName).unwrap_or_default();
         let fail = |message: String| {
-            emit_to(functions.logger, functions.componentEnvironment, &c_string(&name), ERROR, "logStatusError", &message);
+            // SAFETY: the importer's own logger and environment, from its callback struct.
+            unsafe {
+                emit_to(functions.logger, functions.componentEnvironment, &c_string(&name), ERROR, "logStatusError", &message)
+            };
             std::ptr::null_mut()
         };
         if name.is_empty() {
@@ -172,7 +186,10 @@ pub unsafe extern "C" fn fmi2Instantiate(
         }
         match text(fmuGUID) {
             Some(guid) if guid == GUID => {}
-            other => return fail(format!("fmi2Instantiate: GUID {other:?} does not match the model description's {GUID}")),
+            other => {
+                let given = other.map_or("NULL".to_string(), |g| format!("\"{g}\""));
+                return fail(format!("fmi2Instantiate: GUID {given} does not match the model description's {GUID}"));
+            }
         }
         let logger =
             Logger::new(functions.logger, functions.componentEnvironment, c_string(&name), loggingOn != 0);
@@ -576,7 +593,7 @@ pub unsafe extern "C" fn fmi2GetStatus(c: fmi2Component, s: fmi2StatusKind, valu
     guard(c, Call::GetStatus, |_| {
         // SAFETY: value is writable.
         unsafe { out(value, "value") }?;
-        Instance::status_not_available(&format!("kind {s} of fmi2GetStatus"))
+        Instance::status_not_available(&format!("{} of fmi2GetStatus", kind_name(s)))
     })
 }
 const _: sys::fmi2GetStatusTYPE = Some(fmi2GetStatus);
@@ -586,7 +603,7 @@ const _: sys::fmi2GetStatusTYPE = Some(fmi2GetStatus);
 pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Real) -> fmi2Status {
     guard(c, Call::GetRealStatus, |inst| {
         if s != sys::fmi2StatusKind_fmi2LastSuccessfulTime {
-            return Instance::status_not_available(&format!("kind {s} of fmi2GetRealStatus"));
+            return Instance::status_not_available(&format!("{} of fmi2GetRealStatus", kind_name(s)));
         }
         // SAFETY: value is writable.
         *unsafe { out(value, "value") }? = inst.last_successful_time();
@@ -602,7 +619,7 @@ pub unsafe extern "C" fn fmi2GetIntegerStatus(
     s: fmi2StatusKind,
     _value: *mut sys::fmi2Integer,
 ) -> fmi2Status {
-    guard(c, Call::GetIntegerStatus, |_| Instance::status_not_available(&format!("kind {s} of fmi2GetIntegerStatus")))
+    guard(c, Call::GetIntegerStatus, |_| Instance::status_not_available(&format!("{} of fmi2GetIntegerStatus", kind_name(s))))
 }
 const _: sys::fmi2GetIntegerStatusTYPE = Some(fmi2GetIntegerStatus);
 
@@ -611,7 +628,7 @@ const _: sys::fmi2GetIntegerStatusTYPE = Some(fmi2GetIntegerStatus);
 pub unsafe extern "C" fn fmi2GetBooleanStatus(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Boolean) -> fmi2Status {
     guard(c, Call::GetBooleanStatus, |_| {
         if s != sys::fmi2StatusKind_fmi2Terminated {
-            return Instance::status_not_available(&format!("kind {s} of fmi2GetBooleanStatus"));
+            return Instance::status_not_available(&format!("{} of fmi2GetBooleanStatus", kind_name(s)));
         }
         // SAFETY: value is writable.
         *unsafe { out(value, "value") }? = sys::fmi2False as c_int;
@@ -623,7 +640,7 @@ const _: sys::fmi2GetBooleanStatusTYPE = Some(fmi2GetBooleanStatus);
 /// fmi2PendingStatus is not available (steps are synchronous).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetStringStatus(c: fmi2Component, s: fmi2StatusKind, _value: *mut fmi2String) -> fmi2Status {
-    guard(c, Call::GetStringStatus, |_| Instance::status_not_available(&format!("kind {s} of fmi2GetStringStatus")))
+    guard(c, Call::GetStringStatus, |_| Instance::status_not_available(&format!("{} of fmi2GetStringStatus", kind_name(s))))
 }
 const _: sys::fmi2GetStringStatusTYPE = Some(fmi2GetStringStatus);
 

@@ -12,9 +12,9 @@ use super::state_machine::FmiState;
 
 const MAGIC: &[u8; 8] = b"AEMFMUST";
 /// Version of the serialised format; bump it whenever the payload changes.
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 /// Number of Reals in the payload.
-const REALS: usize = 20;
+const REALS: usize = 21;
 const SAVED_MAGIC: u64 = 0x4145_4d5f_5354_4154; // "AEM_STAT"
 
 /// A complete copy of an instance's state.
@@ -33,6 +33,8 @@ pub struct SavedState {
     pub excursion: bool,
     /// Communication time [s].
     pub time: f64,
+    /// stopTime of fmi2SetupExperiment, if defined [s].
+    pub stop_time: Option<f64>,
     /// Module state, once initialised.
     pub module: Option<ModuleState>,
 }
@@ -46,9 +48,10 @@ impl SavedState {
         setpoint_slope: f64,
         excursion: bool,
         time: f64,
+        stop_time: Option<f64>,
         module: Option<ModuleState>,
     ) -> Self {
-        SavedState { magic: SAVED_MAGIC, fmi_state, params, setpoint, setpoint_slope, excursion, time, module }
+        SavedState { magic: SAVED_MAGIC, fmi_state, params, setpoint, setpoint_slope, excursion, time, stop_time, module }
     }
 
     /// Whether `ptr` is aligned and its memory carries a saved state's magic (a cheap guard
@@ -94,6 +97,7 @@ impl SavedState {
             m.energy,
             m.h2_produced,
             self.setpoint_slope,
+            self.stop_time.unwrap_or(0.0),
         ]
     }
 
@@ -105,6 +109,7 @@ impl SavedState {
         payload.push(self.fmi_state.code());
         payload.push(self.excursion as u8);
         payload.push(self.module.is_some() as u8);
+        payload.push(self.stop_time.is_some() as u8);
         for x in self.reals() {
             payload.extend_from_slice(&x.to_le_bytes());
         }
@@ -143,6 +148,7 @@ impl SavedState {
         let fmi_state = FmiState::from_code(r.u8()?).ok_or("serialised state has an unknown FMI state")?;
         let excursion = r.flag()?;
         let has_module = r.flag()?;
+        let has_stop = r.flag()?;
         let mut x = [0.0; REALS];
         for v in x.iter_mut() {
             *v = r.f64()?;
@@ -172,7 +178,7 @@ impl SavedState {
         if module.is_some() {
             params.validate().map_err(|e| format!("serialised state holds invalid parameters: {e}"))?;
         }
-        Ok(SavedState::new(fmi_state, params, x[0], x[19], excursion, x[1], module))
+        Ok(SavedState::new(fmi_state, params, x[0], x[19], excursion, x[1], has_stop.then_some(x[20]), module))
     }
 }
 
@@ -221,7 +227,7 @@ mod tests {
             energy: 1.0e6,
             h2_produced: 33.0,
         };
-        SavedState::new(FmiState::StepComplete, Parameters::default(), 73.0, -0.25, false, 112.5, Some(module))
+        SavedState::new(FmiState::StepComplete, Parameters::default(), 73.0, -0.25, false, 112.5, Some(3600.0), Some(module))
     }
 
     #[test]

@@ -4,7 +4,7 @@
 //! slices and call one method here. Every method either succeeds or returns a [`Failure`]
 //! having changed nothing.
 
-use crate::model::{Module, Parameters};
+use crate::model::{shown, Module, Parameters};
 use crate::model_description::{Causality, RealVariable};
 
 use super::fmu_state::SavedState;
@@ -35,6 +35,8 @@ pub struct Instance {
     setpoint_slope: f64,
     excursion: bool,
     time: f64,
+    /// stopTime of fmi2SetupExperiment, if defined: steps past it are refused [s].
+    stop_time: Option<f64>,
     module: Option<Module>,
 }
 
@@ -50,6 +52,7 @@ impl Instance {
             setpoint_slope: 0.0,
             excursion: false,
             time: 0.0,
+            stop_time: None,
             module: None,
         }
     }
@@ -68,18 +71,19 @@ impl Instance {
         self.magic = 0;
     }
 
-    /// fmi2SetupExperiment: the start time; tolerance and stop time are accepted and unused
-    /// (the integration is exact; a master may stop when it likes).
+    /// fmi2SetupExperiment: the start time, and the stop time past which steps are refused
+    /// (FMI 2.0, section 2.1.6). The tolerance is not needed: the integration is exact.
     pub fn setup_experiment(&mut self, start_time: f64, stop_time: Option<f64>) -> CallResult {
         if !start_time.is_finite() {
-            return Err(error(format!("startTime = {start_time} s is not a finite number")));
+            return Err(error(format!("startTime = {} s is not a finite number", shown(start_time))));
         }
         if let Some(stop) = stop_time {
             if !(stop >= start_time) {
-                return Err(error(format!("stopTime = {stop} s is before startTime = {start_time} s")));
+                return Err(error(format!("stopTime = {} s is before startTime = {} s", shown(stop), shown(start_time))));
             }
         }
         self.time = start_time;
+        self.stop_time = stop_time;
         Ok(Status::Ok)
     }
 
@@ -111,7 +115,9 @@ impl Instance {
 
     /// fmi2Reset: back to the state after fmi2Instantiate.
     pub fn reset(&mut self) -> CallResult {
-        let logger = std::mem::replace(&mut self.logger, Logger::new(None, std::ptr::null_mut(), Default::default(), false));
+        let mut logger = std::mem::replace(&mut self.logger, Logger::new(None, std::ptr::null_mut(), Default::default(), false));
+        // As if fmi2Instantiate had been called again: debug logging as it was requested then.
+        logger.restore_instantiation_logging();
         *self = Instance::new(logger);
         self.logger.info(LOG_EVENTS, "reset to the start values");
         Ok(Status::Ok)
@@ -156,7 +162,7 @@ impl Instance {
         for (vr, value) in vrs.iter().zip(values) {
             let var = known_variable(*vr)?;
             if !value.is_finite() {
-                return Err(error(format!("{} = {value} refused: not a finite number", var.name())));
+                return Err(error(format!("{} = {} refused: not a finite number", var.name(), shown(*value))));
             }
             match var.causality() {
                 Causality::Input => setpoint = *value,
@@ -205,7 +211,7 @@ impl Instance {
                 )));
             }
             if !value.is_finite() {
-                return Err(error(format!("d{}/dt = {value} refused: not a finite number", var.name())));
+                return Err(error(format!("d({})/dt = {} refused: not a finite number", var.name(), shown(*value))));
             }
             slope = *value;
         }
@@ -239,14 +245,25 @@ impl Instance {
     /// fmi2DoStep: advances exactly from the FMU's time by `h` seconds.
     pub fn do_step(&mut self, communication_point: f64, h: f64) -> CallResult {
         if !(h.is_finite() && h > 0.0) {
-            return Err(error(format!("communicationStepSize = {h} s must be finite and > 0")));
+            return Err(error(format!("communicationStepSize = {} s must be finite and > 0", shown(h))));
         }
         let tolerance = TIME_TOLERANCE * self.time.abs().max(1.0);
         if !((communication_point - self.time).abs() <= tolerance) {
             return Err(error(format!(
-                "currentCommunicationPoint = {communication_point} s does not match the FMU's time {} s",
-                self.time
+                "currentCommunicationPoint = {} s does not match the FMU's time {} s",
+                shown(communication_point),
+                shown(self.time)
             )));
+        }
+        if let Some(stop) = self.stop_time {
+            let end = self.time + h;
+            if end > stop + TIME_TOLERANCE * stop.abs().max(1.0) {
+                return Err(error(format!(
+                    "a step to {} s would pass stopTime = {} s set in fmi2SetupExperiment",
+                    shown(end),
+                    shown(stop)
+                )));
+            }
         }
         let Some(module) = self.module.as_mut() else {
             return Err(error("the instance is not initialised"));
@@ -273,6 +290,7 @@ impl Instance {
             self.setpoint_slope,
             self.excursion,
             self.time,
+            self.stop_time,
             self.module.as_ref().map(|m| *m.state()),
         )
     }
@@ -298,13 +316,14 @@ impl Instance {
         self.setpoint_slope = saved.setpoint_slope;
         self.excursion = saved.excursion;
         self.time = saved.time;
+        self.stop_time = saved.stop_time;
         self.module = module;
         Ok(Status::Ok)
     }
 
     /// A status kind this FMU does not provide.
     pub fn status_not_available(kind: &str) -> CallResult {
-        Err(discard(format!("status {kind} is not available: fmi2DoStep always completes synchronously")))
+        Err(discard(format!("{kind} is not available: fmi2DoStep always completes synchronously")))
     }
 }
 

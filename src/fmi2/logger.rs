@@ -21,6 +21,8 @@ pub struct Logger {
     instance_name: CString,
     /// Per entry of LOG_CATEGORIES: is debug logging on for it.
     enabled: Vec<bool>,
+    /// loggingOn of fmi2Instantiate, restored by fmi2Reset.
+    logging_on_at_instantiation: bool,
 }
 
 impl Logger {
@@ -31,7 +33,19 @@ impl Logger {
         instance_name: CString,
         debug_logging: bool,
     ) -> Self {
-        Logger { callback, environment, instance_name, enabled: vec![debug_logging; LOG_CATEGORIES.len()] }
+        Logger {
+            callback,
+            environment,
+            instance_name,
+            enabled: vec![debug_logging; LOG_CATEGORIES.len()],
+            logging_on_at_instantiation: debug_logging,
+        }
+    }
+
+    /// Debug logging back to what fmi2Instantiate asked for.
+    pub fn restore_instantiation_logging(&mut self) {
+        let on = self.logging_on_at_instantiation;
+        self.enabled.iter_mut().for_each(|e| *e = on);
     }
 
     /// The instance name given to fmi2Instantiate.
@@ -93,12 +107,16 @@ impl Logger {
     }
 
     fn emit(&self, status: sys::fmi2Status, category: &str, message: &str) {
-        emit_to(self.callback, self.environment, &self.instance_name, status, category, message);
+        // SAFETY: the callback and environment are the importer's, given to fmi2Instantiate.
+        unsafe { emit_to(self.callback, self.environment, &self.instance_name, status, category, message) };
     }
 }
 
 /// Calls an importer's logger with format "%s", so `message` is never parsed as a format.
-pub fn emit_to(
+///
+/// # Safety
+/// `callback` must be absent or a logger function the importer gave for `environment`.
+pub unsafe fn emit_to(
     callback: sys::fmi2CallbackLogger,
     environment: sys::fmi2ComponentEnvironment,
     instance_name: &CString,

@@ -151,7 +151,7 @@ impl Call {
         .map(|s| s.to_string())
         .collect();
         if names.is_empty() {
-            "no state of this FMU".into()
+            "stepInProgress only, which this FMU never enters (its steps are synchronous)".into()
         } else {
             names.join(", ")
         }

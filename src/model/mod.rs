@@ -12,3 +12,12 @@ mod roots;
 pub use dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
 pub use module::{Module, ModuleState, StepError};
 pub use parameters::{ParameterError, Parameters};
+
+/// A number for messages: plain where that is short, scientific otherwise (1e306, not 307 digits).
+pub fn shown(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e15).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}

@@ -12,6 +12,7 @@ use std::fmt;
 
 use super::dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
 use super::parameters::{ParameterError, Parameters};
+use super::shown;
 
 const SECONDS_PER_HOUR: f64 = 3600.0;
 
@@ -42,9 +43,9 @@ pub enum StepError {
 impl fmt::Display for StepError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            StepError::NonFiniteSetpoint(v) => write!(f, "setpoint = {v} % is not a finite number"),
-            StepError::InvalidStepSize(h) => write!(f, "step size = {h} s must be finite and > 0"),
-            StepError::Overflow(h) => write!(f, "a step of {h} s would overflow the energy or hydrogen totals"),
+            StepError::NonFiniteSetpoint(v) => write!(f, "setpoint = {} % is not a finite number", shown(*v)),
+            StepError::InvalidStepSize(h) => write!(f, "step size = {} s must be finite and > 0", shown(*h)),
+            StepError::Overflow(h) => write!(f, "a step of {} s would overflow the energy or hydrogen totals", shown(*h)),
         }
     }
 }

@@ -51,7 +51,7 @@ pub struct ParameterError {
 
 impl fmt::Display for ParameterError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "parameter {} = {} is invalid: {}", self.name, self.value, self.requirement)
+        write!(f, "parameter {} = {} is invalid: {}", self.name, super::shown(self.value), self.requirement)
     }
 }
 

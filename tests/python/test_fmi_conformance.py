@@ -85,9 +85,11 @@ FMI2_CS_FUNCTIONS = (
 FMUTOOL = Path(sys.executable).with_name("fmutool")
 
 # Serialised FMU state (src/fmi2/fmu_state.rs): magic(8) version(4) payload length(4) payload crc32(4);
-# payload = GUID length(4) GUID, FMI state code(1), excursion flag(1), module flag(1), 19 f64.
+# payload = GUID length(4) GUID, FMI state code(1), excursion, module and stop-time flags (1 each),
+# 21 f64.
 STATE_MAGIC, STATE_VERSION, STATE_LENGTH, STATE_PAYLOAD = 0, 8, 12, 16
-STATE_REALS = 20
+STATE_FLAGS = 4
+STATE_REALS = 21
 
 # Life-cycle test.
 CYCLES = 1000
@@ -418,7 +420,7 @@ def _set_byte(offset_after_guid, value):
 
 def _set_real(index, value):
     def edit(b, guid_length):
-        at = STATE_PAYLOAD + 4 + guid_length + 3 + 8 * index
+        at = STATE_PAYLOAD + 4 + guid_length + STATE_FLAGS + 8 * index
         b[at:at + 8] = struct.pack("<d", value)
         return bytes(b)
 
@@ -438,14 +440,14 @@ CORRUPTIONS = {
     "flip-length": (_flipped(lambda n, g: STATE_LENGTH), ("announces",)),
     "flip-guid": (_flipped(lambda n, g: STATE_PAYLOAD + 4 + 3), ("checksum",)),
     "flip-fmi-state": (_flipped(lambda n, g: STATE_PAYLOAD + 4 + g), ("checksum",)),
-    "flip-real": (_flipped(lambda n, g: STATE_PAYLOAD + 4 + g + 3 + 8 * 16 + 3), ("checksum",)),
+    "flip-real": (_flipped(lambda n, g: STATE_PAYLOAD + 4 + g + STATE_FLAGS + 8 * 16 + 3), ("checksum",)),
     "flip-crc": (_flipped(lambda n, g: n - 1), ("checksum",)),
     "truncated-to-empty": (lambda blob, g: b"", ("truncated",)),
     "truncated-header": (lambda blob, g: blob[:10], ("truncated",)),
     "truncated-by-one": (lambda blob, g: blob[:-1], ("announces",)),
     "truncated-half": (lambda blob, g: blob[: len(blob) // 2], ("announces",)),
     "extended-by-one": (lambda blob, g: blob + b"\0", ("announces",)),
-    "wrong-version": (_resealed(_set_u32(STATE_VERSION, 1)), ("version 1",)),
+    "wrong-version": (_resealed(_set_u32(STATE_VERSION, 2)), ("version 2",)),
     "other-guid": (_resealed(_other_guid), ("GUID",)),
     "unknown-fmi-state": (_resealed(_set_byte(0, 3)), ("FMI state",)),
     "invalid-flag": (_resealed(_set_byte(1, 7)), ("flag",)),
@@ -466,7 +468,7 @@ def test_corrupt_serialized_state_is_refused_and_changes_nothing(driver, model_d
     existing = probe.fmu.getFMUstate()
     good = probe.fmu.serializeFMUstate(existing)
     guid_length = len(model_description.guid)
-    assert len(good) == STATE_PAYLOAD + 4 + guid_length + 3 + 8 * STATE_REALS + 4, "layout assumed here is outdated"
+    assert len(good) == STATE_PAYLOAD + 4 + guid_length + STATE_FLAGS + 8 * STATE_REALS + 4, "layout assumed here is outdated"
     bad = corrupt(good, guid_length)
     assert bad != good
 
