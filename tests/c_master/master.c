@@ -298,10 +298,12 @@ int main(int argc, char **argv) {
         if (inject_name && strcmp(inject_name, "leak") == 0) inject = INJECT_LEAK;
         else if (inject_name && strcmp(inject_name, "invalid-read") == 0) inject = INJECT_INVALID_READ;
         else if (inject_name) die("--inject is leak or invalid-read");
-        const double n = number(cycles, "--cycles");
+        char *end;
+        const unsigned long n = strtoul(cycles, &end, 10);
+        if (*end != '\0' || n == 0) die("--cycles needs a positive whole number");
         sink.quiet = 1; /* thousands of expected warnings and errors */
         for (unsigned long k = 0; k < n; k++) cycle(k, k + 1 == n ? inject : INJECT_NONE);
-        printf("cycles: %.0f, log messages: ok %lu, warning %lu, error %lu\n", n, sink.count[fmi2OK],
+        printf("cycles: %lu, log messages: ok %lu, warning %lu, error %lu\n", n, sink.count[fmi2OK],
                sink.count[fmi2Warning], sink.count[fmi2Error]);
     } else {
         const char *out = option(argc, argv, "--out");

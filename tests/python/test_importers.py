@@ -311,7 +311,13 @@ def test_ten_thousand_cycles_under_valgrind_leak_nothing(c_master, fmu_dir, tmp_
 
 @pytest.fixture(scope="module")
 def asan_master(build_c_master):
-    return build_c_master("master_asan", "-O1", "-fsanitize=address", "-fno-omit-frame-pointer")
+    exe = build_c_master("master_asan", "-O1", "-fsanitize=address", "-fno-omit-frame-pointer")
+    # Old sanitizer runtimes crash at start-up on kernels with high mmap randomisation
+    # (vm.mmap_rnd_bits > 28); that is the host, not the FMU, and valgrind covers it all.
+    usage = subprocess.run([str(exe)], capture_output=True, text=True)
+    if usage.returncode != 2 or "usage:" not in usage.stderr:
+        pytest.skip(f"AddressSanitizer does not run on this host: {usage.stderr[-500:]}")
+    return exe
 
 
 def run_asan(asan_master, fmu_dir, cycles, *extra):
