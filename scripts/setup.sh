@@ -1,16 +1,29 @@
 #!/usr/bin/env bash
 # Installs what building and testing need, and nothing when it is already there:
 # - libclang (fmi-sys runs bindgen on the FMI 2.0 headers), from Debian's packages;
+# - gcc and valgrind (tests/python/test_importers.py compiles the C master in tests/c_master
+#   and runs it under valgrind memcheck and AddressSanitizer), from Debian's packages;
 # - .venv with the Python tools of requirements.txt (fmpy, numpy, scipy, pytest, ...).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+sudo=""
+[ "$(id -u)" -ne 0 ] && sudo="sudo"
+apt_updated=""
+apt_install() {
+  [ -n "$apt_updated" ] || $sudo apt-get update -qq
+  apt_updated=1
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "$@" >/dev/null
+}
+
 if [ -z "${LIBCLANG_PATH:-}" ] && ! ldconfig -p 2>/dev/null | grep -qE 'libclang(-[0-9.]+)?\.so'; then
   echo "setup: installing libclang-dev (needed by bindgen)"
-  sudo=""
-  [ "$(id -u)" -ne 0 ] && sudo="sudo"
-  $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq libclang-dev >/dev/null
+  apt_install libclang-dev
+fi
+
+if ! command -v gcc >/dev/null || ! command -v valgrind >/dev/null; then
+  echo "setup: installing gcc, libc6-dev and valgrind (the C master and its memory test)"
+  apt_install gcc libc6-dev valgrind
 fi
 
 if [ ! -x .venv/bin/python ] || ! cmp -s requirements.txt .venv/requirements.installed; then

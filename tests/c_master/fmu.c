@@ -1,0 +1,197 @@
+/* See fmu.h. POSIX: dlopen, realpath (which glibc declares for X/Open). */
+#define _XOPEN_SOURCE 700
+
+#include "fmu.h"
+
+#include <dlfcn.h>
+#include <limits.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static char *read_file(const char *path) {
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        perror(path);
+        return NULL;
+    }
+    size_t cap = 1 << 14, len = 0;
+    char *text = malloc(cap);
+    while (text) {
+        len += fread(text + len, 1, cap - 1 - len, f);
+        if (len < cap - 1) break;
+        char *bigger = realloc(text, cap *= 2);
+        if (!bigger) free(text);
+        text = bigger;
+    }
+    int failed = ferror(f);
+    fclose(f);
+    if (!text || failed) {
+        fprintf(stderr, "cannot read %s\n", path);
+        free(text);
+        return NULL;
+    }
+    text[len] = '\0';
+    return text;
+}
+
+/* The value of attribute `name` (e.g. ` guid`) at or after `from` and before the end of
+ * the element's start tag; a fresh string, or NULL. A simple scan, not an XML parser: it
+ * is enough for the attributes of this model description, which hold no '>' or quotes. */
+static char *attribute(const char *from, const char *name) {
+    const char *tag_end = strchr(from, '>');
+    char pattern[64];
+    snprintf(pattern, sizeof pattern, "%s=\"", name);
+    const char *at = strstr(from, pattern);
+    if (!at || !tag_end || at > tag_end) return NULL;
+    at += strlen(pattern);
+    const char *end = strchr(at, '"');
+    if (!end) return NULL;
+    char *value = malloc((size_t)(end - at) + 1);
+    if (value) {
+        memcpy(value, at, (size_t)(end - at));
+        value[end - at] = '\0';
+    }
+    return value;
+}
+
+/* The value of `name` in the start tag of the first element `<element`. */
+static char *element_attribute(const char *xml, const char *element, const char *name) {
+    const char *at = strstr(xml, element);
+    return at ? attribute(at, name) : NULL;
+}
+
+fmi2ValueReference fmu_value_reference(const Fmu *fmu, const char *name) {
+    char pattern[128];
+    snprintf(pattern, sizeof pattern, " name=\"%s\"", name);
+    const char *at = strstr(fmu->model_description, pattern);
+    /* The start tag of the ScalarVariable holding this name attribute. */
+    while (at && at > fmu->model_description && *at != '<') at--;
+    char *text = at ? attribute(at, " valueReference") : NULL;
+    if (!text) {
+        fprintf(stderr, "modelDescription.xml has no ScalarVariable %s with a valueReference\n", name);
+        exit(1);
+    }
+    char *end;
+    unsigned long vr = strtoul(text, &end, 10);
+    if (*end != '\0' || end == text || vr > UINT_MAX) {
+        fprintf(stderr, "valueReference \"%s\" of %s is not an unsigned int\n", text, name);
+        exit(1);
+    }
+    free(text);
+    return (fmi2ValueReference)vr;
+}
+
+static char *join(const char *a, const char *b, const char *c) {
+    size_t n = strlen(a) + strlen(b) + strlen(c) + 1;
+    char *s = malloc(n);
+    if (s) snprintf(s, n, "%s%s%s", a, b, c);
+    return s;
+}
+
+int fmu_load(Fmu *fmu, const char *dir) {
+    memset(fmu, 0, sizeof *fmu);
+    char *path = join(dir, "/", "modelDescription.xml");
+    fmu->model_description = path ? read_file(path) : NULL;
+    free(path);
+    if (!fmu->model_description) return -1;
+
+    const char *md = fmu->model_description;
+    char *version = element_attribute(md, "<fmiModelDescription", " fmiVersion");
+    int is_fmi2 = version && strcmp(version, fmi2Version) == 0;
+    free(version);
+    if (!is_fmi2) {
+        fprintf(stderr, "%s: not an FMI %s model description\n", dir, fmi2Version);
+        return -1;
+    }
+    fmu->guid = element_attribute(md, "<fmiModelDescription", " guid");
+    fmu->model_identifier = element_attribute(md, "<CoSimulation", " modelIdentifier");
+    if (!fmu->guid || !fmu->model_identifier) {
+        fprintf(stderr, "%s: no guid or no <CoSimulation modelIdentifier>\n", dir);
+        return -1;
+    }
+
+    /* FMI 2.0, section 2.1.5: fmuResourceLocation is a URI of the resources folder. */
+    char absolute[PATH_MAX];
+    if (!realpath(dir, absolute)) {
+        perror(dir);
+        return -1;
+    }
+    fmu->resource_uri = join("file://", absolute, "/resources");
+
+    /* FMI 2.0, section 2.3: binaries/<platform>/<modelIdentifier>.<so|dll|dylib>. */
+    char *binaries = join(absolute, "/binaries/linux64/", fmu->model_identifier);
+    char *library = binaries ? join(binaries, ".so", "") : NULL;
+    free(binaries);
+    if (!fmu->resource_uri || !library) {
+        free(library);
+        return -1;
+    }
+    fmu->library = dlopen(library, RTLD_NOW | RTLD_LOCAL);
+    if (!fmu->library) {
+        fprintf(stderr, "dlopen: %s\n", dlerror());
+        free(library);
+        return -1;
+    }
+    free(library);
+
+    int missing = 0;
+    /* ISO C has no conversion from void * to a function pointer; POSIX guarantees that the
+     * representations agree, so the address is copied bytewise. */
+#define FMI2_RESOLVE(name)                                                                 \
+    {                                                                                      \
+        void *symbol = dlsym(fmu->library, "fmi2" #name);                                  \
+        if (!symbol) {                                                                     \
+            fprintf(stderr, "the library does not export fmi2" #name "\n");                \
+            missing++;                                                                     \
+        }                                                                                  \
+        memcpy(&fmu->name, &symbol, sizeof symbol);                                        \
+    }
+    FMI2_CS_FUNCTIONS(FMI2_RESOLVE)
+#undef FMI2_RESOLVE
+    return missing ? -1 : 0;
+}
+
+int fmu_unload(Fmu *fmu) {
+    int rc = 0;
+    if (fmu->library && dlclose(fmu->library) != 0) {
+        fprintf(stderr, "dlclose: %s\n", dlerror());
+        rc = -1;
+    }
+    free(fmu->guid);
+    free(fmu->model_identifier);
+    free(fmu->resource_uri);
+    free(fmu->model_description);
+    memset(fmu, 0, sizeof *fmu);
+    return rc;
+}
+
+const char *fmu_status_name(fmi2Status status) {
+    static const char *const names[] = {"fmi2OK", "fmi2Warning", "fmi2Discard", "fmi2Error",
+                                        "fmi2Fatal", "fmi2Pending"};
+    return (unsigned)status <= fmi2Pending ? names[status] : "(not an fmi2Status)";
+}
+
+void fmu_logger(fmi2ComponentEnvironment env, fmi2String instance_name, fmi2Status status,
+                fmi2String category, fmi2String message, ...) {
+    /* FMI 2.0, section 2.1.5: `message` is a printf format string for the arguments that
+     * follow (it may also hold #<Type><valueReference># references, printed as they are). */
+    va_list args, probe;
+    va_start(args, message);
+    va_copy(probe, args);
+    int length = message ? vsnprintf(NULL, 0, message, probe) : -1;
+    va_end(probe);
+    char *text = length >= 0 ? malloc((size_t)length + 1) : NULL;
+    if (text) vsnprintf(text, (size_t)length + 1, message, args);
+    va_end(args);
+
+    LogSink *sink = env;
+    if (sink && (unsigned)status <= fmi2Pending) sink->count[status]++;
+    if (!sink || !sink->quiet) {
+        fprintf(stderr, "[%s] %s (%s): %s\n", fmu_status_name(status),
+                instance_name ? instance_name : "(null)", category ? category : "(null)",
+                text ? text : "(message could not be formatted)");
+    }
+    free(text);
+}

@@ -1,0 +1,67 @@
+/* Loading an extracted FMI 2.0 co-simulation FMU: its model description (the few facts a
+ * master needs), its shared library (all 34 common and co-simulation functions) and a
+ * logger callback.
+ *
+ * Compiled against the standard's own headers (fmi2Functions.h, fmi2FunctionTypes.h,
+ * fmi2TypesPlatform.h), taken from the fmi-sys crate at build time, so every function
+ * pointer has exactly the type the standard declares. */
+#ifndef AEM_C_MASTER_FMU_H
+#define AEM_C_MASTER_FMU_H
+
+#include <stddef.h>
+
+#include "fmi2Functions.h"
+
+/* The 34 functions a co-simulation FMU must export (FMI 2.0, sections 2.1 and 4.2): the
+ * common functions, the FMU-state and directional-derivative functions (exported even when
+ * the capability flags say they are not provided) and the co-simulation functions. */
+#define FMI2_CS_FUNCTIONS(X)                                                                   \
+    X(GetTypesPlatform) X(GetVersion) X(SetDebugLogging)                                       \
+    X(Instantiate) X(FreeInstance)                                                             \
+    X(SetupExperiment) X(EnterInitializationMode) X(ExitInitializationMode)                    \
+    X(Terminate) X(Reset)                                                                      \
+    X(GetReal) X(GetInteger) X(GetBoolean) X(GetString)                                        \
+    X(SetReal) X(SetInteger) X(SetBoolean) X(SetString)                                        \
+    X(GetFMUstate) X(SetFMUstate) X(FreeFMUstate)                                              \
+    X(SerializedFMUstateSize) X(SerializeFMUstate) X(DeSerializeFMUstate)                      \
+    X(GetDirectionalDerivative)                                                                \
+    X(SetRealInputDerivatives) X(GetRealOutputDerivatives)                                     \
+    X(DoStep) X(CancelStep)                                                                    \
+    X(GetStatus) X(GetRealStatus) X(GetIntegerStatus) X(GetBooleanStatus) X(GetStringStatus)
+
+/* One loaded FMU: `fmu.DoStep` is the FMU's fmi2DoStep, typed by the standard's header. */
+typedef struct {
+    void *library; /* dlopen handle */
+    char *guid;
+    char *model_identifier;
+    char *resource_uri; /* file:// URI of <dir>/resources */
+    char *model_description; /* the file's text, for value_reference() */
+#define FMI2_FIELD(name) fmi2##name##TYPE *name;
+    FMI2_CS_FUNCTIONS(FMI2_FIELD)
+#undef FMI2_FIELD
+} Fmu;
+
+/* Reads <dir>/modelDescription.xml and loads <dir>/binaries/linux64/<modelIdentifier>.so,
+ * resolving every function. Returns 0, or -1 after printing why to stderr. */
+int fmu_load(Fmu *fmu, const char *dir);
+
+/* Unloads the library and frees what fmu_load allocated. Returns 0, or -1 if dlclose fails. */
+int fmu_unload(Fmu *fmu);
+
+/* The valueReference of the ScalarVariable called `name`; exits if there is none. */
+fmi2ValueReference fmu_value_reference(const Fmu *fmu, const char *name);
+
+/* What the logger saw: messages counted per status, printed to stderr unless quiet. */
+typedef struct {
+    unsigned long count[fmi2Pending + 1];
+    int quiet;
+} LogSink;
+
+/* The fmi2CallbackLogger: formats the printf-style message with vsnprintf. Its
+ * componentEnvironment must be a LogSink. */
+void fmu_logger(fmi2ComponentEnvironment env, fmi2String instance_name, fmi2Status status,
+                fmi2String category, fmi2String message, ...);
+
+const char *fmu_status_name(fmi2Status status);
+
+#endif
