@@ -41,6 +41,7 @@ pub struct SavedState {
 
 impl SavedState {
     /// A new saved state.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         fmi_state: FmiState,
         params: Parameters,
