@@ -3,9 +3,11 @@
 //! - [`parameters`]: Table I of the paper and its validation.
 //! - [`dynamics`]: setpoint → stack current, G(s) with a rising-rate limit, exact steps.
 //! - [`module`]: one running module: polarisation curve, power, hydrogen, integrals.
+//! - [`operation`]: a module's operating states (idle, curve, steady, standby, blowdown).
 
 pub mod dynamics;
 pub mod module;
+pub mod operation;
 pub mod parameters;
 mod roots;
 
