@@ -3,15 +3,25 @@
 //! - [`parameters`]: Table I of the paper and its validation.
 //! - [`dynamics`]: setpoint → stack current, G(s) with a rising-rate limit, exact steps.
 //! - [`module`]: one running module: polarisation curve, power, hydrogen, integrals.
+//! - [`hub`]: N modules simulated as groups; [`dispatch`]: who runs at which setpoint.
+//! - [`spread`]: seeded per-module parameter sets.
+//! - [`operation`]: a module's operating states (idle, curve, steady, standby, blowdown).
 
+pub mod dispatch;
 pub mod dynamics;
+pub mod hub;
 pub mod module;
+pub mod operation;
 pub mod parameters;
+pub mod spread;
 mod roots;
 
 pub use dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
 pub use module::{Module, ModuleState, StepError};
 pub use parameters::{ParameterError, Parameters};
+pub use dispatch::{Demand, DispatchPolicy};
+pub use hub::{Hub, HubConfig};
+pub use operation::{BelowMinimum, OperatingState, OperationParameters};
 
 /// A number for messages: plain where that is short, scientific otherwise (1e306, not 307 digits).
 pub fn shown(x: f64) -> String {

@@ -1,0 +1,90 @@
+//! Benchmark: one day at 1 s of a 25 000-module hub (a 60 MW class plant of 2.4 kW modules)
+//! following a seeded wind-like power reference, driven through the pure model.
+//!
+//! cargo bench --bench hub
+//!
+//! Cases: `equal` (one group), `sequential` (a few groups), and 25 000 individual parameter
+//! sets (±3 % seeded spread around Table I, equal dispatch: 25 000 groups of one).
+//! Prints wall seconds per simulated day and the hardware. Targets from issue 4:
+//! ≤ 0.5 s, ≤ 1 s, ≤ 15 s.
+
+use std::time::Instant;
+
+use aem_electrolyser::model::dispatch::power_at_setpoint;
+use aem_electrolyser::model::spread::spread_parameters;
+use aem_electrolyser::model::{BelowMinimum, Demand, DispatchPolicy, Hub, HubConfig, OperationParameters, Parameters};
+
+const DAY: usize = 86_400;
+const MODULES: u32 = 25_000;
+
+/// Seeded wind-like hub power reference [W]: a mean-reverting random walk at 1 s between
+/// 5 % and 100 % of the hub's rated power, with gusts.
+fn wind_reference(n: usize, rated: f64, seed: u64) -> Vec<f64> {
+    let mut state = seed.max(1);
+    let mut uniform = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut x: f64 = 0.6;
+    (0..n)
+        .map(|_| {
+            x += 0.001 * (0.6 - x) + 0.01 * (uniform() - 0.5);
+            x = x.clamp(0.05, 1.0);
+            x * rated
+        })
+        .collect()
+}
+
+fn hardware() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string()))
+        .unwrap_or_else(|| "unknown CPU".into());
+    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    format!("{cpu}, {cores} logical cores available, single-threaded run")
+}
+
+fn run(name: &str, mut hub: Hub, reference: &[f64], target: f64) {
+    let start = Instant::now();
+    let mut max_groups = 0;
+    for &p in reference {
+        if let Err(e) = hub.step(Demand::Power(p), 1.0) {
+            eprintln!("{name}: step failed: {e}");
+            return;
+        }
+        max_groups = max_groups.max(hub.groups().len());
+    }
+    let secs = start.elapsed().as_secs_f64();
+    let t = hub.totals();
+    println!(
+        "{name:<28} {secs:8.3} s/day (target <= {target} s)  groups max {max_groups:>6}  energy {:.1} MWh  H2 {:.0} kg  starts {}",
+        t.energy / 3.6e9,
+        t.h2_produced * aem_electrolyser::model::hub::H2_KG_PER_NL,
+        t.starts
+    );
+}
+
+fn main() {
+    println!("hardware: {}", hardware());
+    let base = Parameters::default();
+    let rated = MODULES as f64 * power_at_setpoint(&base, base.max_setpoint);
+    let reference = wind_reference(DAY, rated, 42);
+    let op = OperationParameters { below_minimum: BelowMinimum::Standby, ..Default::default() };
+    let config = |policy| HubConfig { n_modules: MODULES, policy, hysteresis: 5.0, operation: op };
+    let first = Demand::Power(reference[0]);
+    let equal = Hub::new(base, config(DispatchPolicy::Equal), first);
+    let sequential = Hub::new(base, config(DispatchPolicy::Sequential), first);
+    let sets = spread_parameters(&base, MODULES as usize, 0.03, 7);
+    let individual = Hub::with_parameter_sets(sets, config(DispatchPolicy::Equal), first);
+    match (equal, sequential, individual) {
+        (Ok(e), Ok(s), Ok(i)) => {
+            println!("one day at 1 s, {MODULES} modules, rated {:.1} MW, wind-like power reference (seed 42)", rated / 1e6);
+            run("equal", e, &reference, 0.5);
+            run("sequential", s, &reference, 1.0);
+            run("individual parameters (eq)", i, &reference, 15.0);
+        }
+        (e, s, i) => eprintln!("cannot build the hubs: {:?} {:?} {:?}", e.err(), s.err(), i.err()),
+    }
+}

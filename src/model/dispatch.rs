@@ -1,0 +1,173 @@
+//! Dispatch: how many modules of a hub run, and at which setpoint.
+//!
+//! The hub's demand is expressed per module ("module units": % of one module's setpoint in
+//! setpoint mode, W of one module's stack power in power mode). With a total demand D (sum
+//! over modules), module limits [m, M] and a hysteresis band b in the same units:
+//! - `Equal` (the paper): all N modules run at the share D/N, or none; they stop when
+//!   D/N < m − b and start again when D/N ≥ m.
+//! - `Sequential`: as few modules as possible, n = ⌈D/M⌉ (0 if D < m); the count only falls
+//!   once the demand is b below the next threshold: n stays between ⌈D/M⌉ and ⌈(D+b)/M⌉.
+//!   Each runs at D/n. Between M and 2m (e.g. 100…120 % of a module) no split keeps every
+//!   module in [m, M]: the running modules are clamped to m (the hub over-produces there).
+//! - `Rotation`: the count of `Sequential`; which modules run is chosen by running hours
+//!   and starts (see [`crate::model::hub`]).
+
+use super::parameters::{ParameterError, Parameters};
+
+/// Dispatch policy; the discriminant is the FMU's Integer code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum DispatchPolicy {
+    /// 1: every module gets the same share (the paper).
+    Equal = 1,
+    /// 2: as few modules as possible, each within its operating window.
+    Sequential = 2,
+    /// 3: sequential, fewest running hours (then starts) first.
+    Rotation = 3,
+}
+
+impl DispatchPolicy {
+    /// From the FMU's Integer code; the error names the value.
+    pub fn from_code(code: i64) -> Result<Self, ParameterError> {
+        match code {
+            1 => Ok(Self::Equal),
+            2 => Ok(Self::Sequential),
+            3 => Ok(Self::Rotation),
+            _ => Err(ParameterError {
+                name: "dispatch",
+                value: code as f64,
+                requirement: "must be 1 (equal), 2 (sequential) or 3 (rotation)".into(),
+            }),
+        }
+    }
+}
+
+/// What the hub is asked for.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Demand {
+    /// Production setpoint [% of the hub's nominal], i.e. the same % for each module.
+    Setpoint(f64),
+    /// Electric (stack) power reference of the whole hub [W].
+    Power(f64),
+}
+
+impl Demand {
+    /// The input's value.
+    pub fn value(self) -> f64 {
+        match self {
+            Demand::Setpoint(v) | Demand::Power(v) => v,
+        }
+    }
+}
+
+/// One module's load window and the hysteresis band, in module units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Limits {
+    /// Smallest load of a running module.
+    pub min: f64,
+    /// Largest load of a module.
+    pub max: f64,
+    /// Hysteresis band against switching modules on and off repeatedly.
+    pub band: f64,
+}
+
+/// Number of modules that should run for a total demand `total` (module units, summed over
+/// the hub), given the count that ran before. `always_on`: belowMinimum = 0, never stop.
+pub fn running_count(policy: DispatchPolicy, modules: u32, total: f64, limits: Limits, previous: u32, always_on: bool) -> u32 {
+    if always_on {
+        return modules;
+    }
+    let n = modules as f64;
+    match policy {
+        DispatchPolicy::Equal => {
+            let share = total / n;
+            if share >= limits.min {
+                modules
+            } else if share < limits.min - limits.band {
+                0
+            } else if previous > 0 {
+                modules
+            } else {
+                0
+            }
+        }
+        DispatchPolicy::Sequential | DispatchPolicy::Rotation => {
+            let count = |d: f64| -> u32 {
+                if d < limits.min {
+                    0
+                } else {
+                    (d / limits.max).ceil().min(n) as u32
+                }
+            };
+            let need = count(total);
+            let keep = count(total + limits.band).max(need);
+            previous.clamp(need, keep)
+        }
+    }
+}
+
+/// Setpoint [%] at which a module's steady stack power is `power` [W]: the positive root of
+/// P = (V0 + R·I)·I, I = 2P / (V0 + √(V0² + 4RP)) (the cancellation-free form, also valid
+/// for R = 0), divided by K. Negative powers give 0.
+pub fn setpoint_for_power(params: &Parameters, power: f64) -> f64 {
+    let p = power.max(0.0);
+    let v0 = params.voltage_intercept;
+    let current = 2.0 * p / (v0 + (v0 * v0 + 4.0 * params.ohmic_resistance * p).sqrt());
+    if current.is_finite() {
+        current / params.gain
+    } else {
+        0.0
+    }
+}
+
+/// Steady stack power of a module at `setpoint` [%]: (V0 + R·K·u)·K·u [W].
+pub fn power_at_setpoint(params: &Parameters, setpoint: f64) -> f64 {
+    let i = params.gain * setpoint;
+    (params.voltage_intercept + params.ohmic_resistance * i) * i
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const L: Limits = Limits { min: 60.0, max: 100.0, band: 5.0 };
+
+    #[test]
+    fn power_inversion_is_the_inverse_of_the_polarisation_curve() {
+        let p = Parameters::default();
+        for u in [0.0, 1.0, 60.0, 77.7, 100.0, 140.0] {
+            let back = setpoint_for_power(&p, power_at_setpoint(&p, u));
+            assert!((back - u).abs() < 1e-12, "{u} vs {back}");
+        }
+        let ohmic_free = Parameters { ohmic_resistance: 0.0, ..p };
+        assert!((setpoint_for_power(&ohmic_free, 1000.0) - 1000.0 / 35.75 / 0.534).abs() < 1e-12);
+        assert_eq!(setpoint_for_power(&p, -5.0), 0.0);
+    }
+
+    #[test]
+    fn sequential_counts_with_hysteresis() {
+        use DispatchPolicy::Sequential as S;
+        assert_eq!(running_count(S, 10, 250.0, L, 0, false), 3);
+        assert_eq!(running_count(S, 10, 50.0, L, 0, false), 0);
+        assert_eq!(running_count(S, 10, 57.0, L, 1, false), 1); // within the band: keep
+        assert_eq!(running_count(S, 10, 54.0, L, 1, false), 0);
+        assert_eq!(running_count(S, 10, 197.0, L, 3, false), 3); // 197 + 5 > 200: keep 3
+        assert_eq!(running_count(S, 10, 194.0, L, 3, false), 2);
+        assert_eq!(running_count(S, 10, 5000.0, L, 3, false), 10);
+    }
+
+    #[test]
+    fn equal_counts_with_hysteresis() {
+        use DispatchPolicy::Equal as E;
+        assert_eq!(running_count(E, 4, 240.0, L, 0, false), 4);
+        assert_eq!(running_count(E, 4, 230.0, L, 0, false), 0);
+        assert_eq!(running_count(E, 4, 230.0, L, 4, false), 4);
+        assert_eq!(running_count(E, 4, 210.0, L, 4, false), 0);
+        assert_eq!(running_count(E, 4, 0.0, L, 0, true), 4);
+    }
+
+    #[test]
+    fn policy_codes_are_checked() {
+        assert_eq!(DispatchPolicy::from_code(3), Ok(DispatchPolicy::Rotation));
+        assert!(DispatchPolicy::from_code(0).unwrap_err().to_string().contains("dispatch = 0"));
+    }
+}

@@ -1,0 +1,434 @@
+//! A hub of N modules, simulated as groups.
+//!
+//! Modules with the same parameter set, the same dispatch role (running or stopped) and the
+//! same state (operating state, timer, current dynamics, and for `Rotation` the same running
+//! hours and starts) behave identically, so they form ONE [`Group`] with a count. An `Equal`
+//! hub of identical modules is one group; a `Sequential` hub a few (modules started at
+//! different times merge again once their states are bit-identical). Per-module parameter
+//! sets give groups of one: a plain `Vec` of small structs, stepped in place with no
+//! allocation per step.
+//!
+//! Hub totals: P_hub = Σ count·P_module [W], F_hub = Σ count·c·I [Nl/h],
+//! E_hub = Σ count·E_module [J], N_hub = Σ count·c·∫I dt / 3600 [Nl].
+
+use std::cmp::Ordering;
+
+use super::dispatch::{power_at_setpoint, running_count, setpoint_for_power, Demand, DispatchPolicy, Limits};
+use super::dynamics::{CurrentDynamics, StepFactors};
+use super::module::StepError;
+use super::operation::{BelowMinimum, Command, OperatingState, OperationParameters, UnitState};
+use super::parameters::{ParameterError, Parameters};
+
+const SECONDS_PER_HOUR: f64 = 3600.0;
+/// Hydrogen density at normal conditions (0 °C, 1 atm) [kg/Nl]: 2.01588 g/mol / 22.413969 l/mol.
+pub const H2_KG_PER_NL: f64 = 2.01588e-3 / 22.413969;
+
+/// Hub-level configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HubConfig {
+    /// Number of modules N ≥ 1.
+    pub n_modules: u32,
+    /// Dispatch policy.
+    pub policy: DispatchPolicy,
+    /// Hysteresis band [% of one module's nominal setpoint range]: in setpoint mode in %,
+    /// in power mode as that fraction of one module's power at maxSetpoint.
+    pub hysteresis: f64,
+    /// Start-up, standby and shut-down.
+    pub operation: OperationParameters,
+}
+
+impl Default for HubConfig {
+    fn default() -> Self {
+        HubConfig { n_modules: 1, policy: DispatchPolicy::Equal, hysteresis: 5.0, operation: OperationParameters::default() }
+    }
+}
+
+/// One parameter set with its derived constants.
+#[derive(Clone, Debug)]
+struct ModuleType {
+    params: Parameters,
+    dynamics: CurrentDynamics,
+    factors: StepFactors,
+    /// c / 3600 [Nl/(A·s)].
+    h2_per_coulomb: f64,
+}
+
+/// `count` modules that behave identically.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Group {
+    /// Number of modules in the group (≥ 1).
+    pub count: u32,
+    /// Index of the parameter set.
+    pub kind: u32,
+    /// Dispatched to run (true) or stopped.
+    pub active: bool,
+    /// The modules' state.
+    pub unit: UnitState,
+    /// Running seconds per module (tracked for `Rotation` only) [s].
+    pub running: f64,
+    /// Starts per module (tracked for `Rotation` only).
+    pub starts: u64,
+}
+
+/// Hub totals since the start.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HubTotals {
+    /// Model time [s].
+    pub time: f64,
+    /// Electric energy [J].
+    pub energy: f64,
+    /// Hydrogen [Nl].
+    pub h2_produced: f64,
+    /// Running time summed over modules [s].
+    pub running: f64,
+    /// Starts summed over modules.
+    pub starts: u64,
+}
+
+/// The hub: parameter sets, groups, dispatch memory and totals.
+#[derive(Clone, Debug)]
+pub struct Hub {
+    config: HubConfig,
+    types: Vec<ModuleType>,
+    groups: Vec<Group>,
+    /// Modules dispatched to run after the last step.
+    running_target: u32,
+    totals: HubTotals,
+    /// Upper bound of the hub's power [W], for the overflow check.
+    max_power: f64,
+    /// Scratch for choosing modules (reused: no allocation once warm).
+    order: Vec<u32>,
+}
+
+impl Hub {
+    /// A hub of `config.n_modules` identical modules with parameters `params`, in the state
+    /// the dispatch asks for at t = 0 under `demand`: running modules Steady in steady state,
+    /// the others Idle.
+    pub fn new(params: Parameters, config: HubConfig, demand: Demand) -> Result<Self, ParameterError> {
+        Self::build(vec![params], config, demand)
+    }
+
+    /// A hub whose module k has parameter set `sets[k]` (one group per module).
+    pub fn with_parameter_sets(sets: Vec<Parameters>, config: HubConfig, demand: Demand) -> Result<Self, ParameterError> {
+        if sets.len() != config.n_modules as usize {
+            return Err(ParameterError {
+                name: "nModules",
+                value: config.n_modules as f64,
+                requirement: format!("must equal the number of parameter sets, {}", sets.len()),
+            });
+        }
+        Self::build(sets, config, demand)
+    }
+
+    fn build(sets: Vec<Parameters>, config: HubConfig, demand: Demand) -> Result<Self, ParameterError> {
+        validate(&config)?;
+        let mut types = Vec::with_capacity(sets.len());
+        let mut max_power = 0.0;
+        for params in sets {
+            params.validate()?;
+            if matches!(demand, Demand::Power(_)) && params.voltage_intercept == 0.0 && params.ohmic_resistance == 0.0 {
+                return Err(ParameterError {
+                    name: "voltageIntercept",
+                    value: 0.0,
+                    requirement: "and ohmicResistance = 0 draw no power: a power reference cannot be met".into(),
+                });
+            }
+            let op = &config.operation;
+            max_power += power_at_setpoint(&params, params.max_setpoint).max(op.start_power).max(op.standby_power);
+            types.push(ModuleType {
+                dynamics: CurrentDynamics::new(&params),
+                factors: StepFactors::default(),
+                h2_per_coulomb: params.h2_coefficient / SECONDS_PER_HOUR,
+                params,
+            });
+        }
+        if types.len() == 1 {
+            max_power *= config.n_modules as f64;
+        }
+        if !demand.value().is_finite() {
+            return Err(ParameterError { name: "setpoint", value: demand.value(), requirement: "must be a finite number".into() });
+        }
+        let mut hub = Hub {
+            config,
+            groups: Vec::with_capacity(types.len().max(4)),
+            types,
+            running_target: 0,
+            totals: HubTotals::default(),
+            max_power,
+            order: Vec::new(),
+        };
+        let n = hub.target_count(demand);
+        hub.running_target = n;
+        let per_type_count = if hub.types.len() == 1 { config.n_modules } else { 1 };
+        let mut active_left = n;
+        for kind in 0..hub.types.len() {
+            let on = active_left.min(per_type_count);
+            active_left -= on;
+            let u = hub.module_setpoint(kind, demand, n.max(1));
+            let ty = &hub.types[kind];
+            if on > 0 {
+                let unit = UnitState::steady(&ty.params, &ty.dynamics, u);
+                hub.groups.push(Group { count: on, kind: kind as u32, active: true, unit, running: 0.0, starts: 0 });
+            }
+            if per_type_count > on {
+                let unit = UnitState::idle();
+                hub.groups.push(Group { count: per_type_count - on, kind: kind as u32, active: false, unit, running: 0.0, starts: 0 });
+            }
+        }
+        Ok(hub)
+    }
+
+    /// Module limits and band in module units for this demand, from parameter set 0.
+    fn limits(&self, demand: Demand) -> Limits {
+        let p = &self.types[0].params;
+        match demand {
+            Demand::Setpoint(_) => Limits { min: p.min_setpoint, max: p.max_setpoint, band: self.config.hysteresis },
+            Demand::Power(_) => {
+                let max = power_at_setpoint(p, p.max_setpoint);
+                Limits { min: power_at_setpoint(p, p.min_setpoint), max, band: self.config.hysteresis / 100.0 * max }
+            }
+        }
+    }
+
+    fn target_count(&self, demand: Demand) -> u32 {
+        let n = self.config.n_modules;
+        let total = match demand {
+            Demand::Setpoint(u) => u * n as f64,
+            Demand::Power(p) => p,
+        };
+        let always_on = self.config.operation.below_minimum == BelowMinimum::Minimum;
+        running_count(self.config.policy, n, total, self.limits(demand), self.running_target, always_on)
+    }
+
+    /// Setpoint [%] of a running module of parameter set `kind` when `running` modules share
+    /// the demand equally (setpoint: u·N/n; power: the inverse polarisation curve at P/n).
+    #[inline]
+    fn module_setpoint(&self, kind: usize, demand: Demand, running: u32) -> f64 {
+        match demand {
+            Demand::Setpoint(u) if running == self.config.n_modules => u,
+            Demand::Setpoint(u) => u * self.config.n_modules as f64 / running as f64,
+            Demand::Power(p) => setpoint_for_power(&self.types[kind].params, p / running as f64),
+        }
+    }
+
+    /// Advances the hub by `h` seconds with `demand` held over the step. Refused requests
+    /// leave the hub unchanged.
+    pub fn step(&mut self, demand: Demand, h: f64) -> Result<(), StepError> {
+        let value = demand.value();
+        if !value.is_finite() {
+            return Err(StepError::NonFiniteSetpoint(value));
+        }
+        if !(h.is_finite() && h > 0.0) {
+            return Err(StepError::InvalidStepSize(h));
+        }
+        let bound = self.totals.energy + h * self.max_power;
+        if !(bound.is_finite() && (self.totals.time + h).is_finite() && (self.totals.running + h * self.config.n_modules as f64).is_finite()) {
+            return Err(StepError::Overflow(h));
+        }
+        let n = self.target_count(demand);
+        self.rebalance(n);
+        self.running_target = n;
+        let rotation = self.config.policy == DispatchPolicy::Rotation;
+        let op = self.config.operation;
+        let shared_u = if self.types.len() == 1 { self.module_setpoint(0, demand, n.max(1)) } else { 0.0 };
+        let mut totals = self.totals;
+        for gi in 0..self.groups.len() {
+            let g = self.groups[gi];
+            let kind = g.kind as usize;
+            let command = if g.active {
+                Command::Run(if self.types.len() == 1 { shared_u } else { self.module_setpoint(kind, demand, n.max(1)) })
+            } else {
+                Command::Stop
+            };
+            let ty = &mut self.types[kind];
+            let mut unit = g.unit;
+            let t = unit.advance(&ty.params, &ty.dynamics, &mut ty.factors, &op, command, h);
+            let c = g.count as f64;
+            totals.energy += c * t.energy;
+            totals.h2_produced += c * (ty.h2_per_coulomb * t.charge);
+            totals.running += c * t.running;
+            totals.starts += g.count as u64 * t.starts as u64;
+            let group = &mut self.groups[gi];
+            group.unit = unit;
+            if rotation {
+                group.running += t.running;
+                group.starts += t.starts as u64;
+            }
+        }
+        totals.time += h;
+        self.totals = totals;
+        if self.types.len() == 1 && self.groups.len() > 1 {
+            self.merge();
+        }
+        Ok(())
+    }
+
+    /// Switches modules on or off until `target` modules are dispatched to run, preferring
+    /// (to start) warm Standby over Idle over Blowdown, (to stop) Curve over Steady; under
+    /// `Rotation`, fewest running hours then starts first (to stop: most). Ties are broken by
+    /// state contents, never by position, so the choice does not depend on grouping.
+    fn rebalance(&mut self, target: u32) {
+        let active: u32 = self.groups.iter().filter(|g| g.active).map(|g| g.count).sum();
+        if active == target {
+            return;
+        }
+        let starting = target > active;
+        let mut need = if starting { target - active } else { active - target };
+        let rotation = self.config.policy == DispatchPolicy::Rotation;
+        self.order.clear();
+        self.order.extend((0..self.groups.len() as u32).filter(|&i| self.groups[i as usize].active != starting));
+        let groups = &self.groups;
+        self.order.sort_unstable_by(|&a, &b| preference(&groups[a as usize], &groups[b as usize], starting, rotation));
+        for k in 0..self.order.len() {
+            if need == 0 {
+                break;
+            }
+            let gi = self.order[k] as usize;
+            let g = self.groups[gi];
+            if g.count <= need {
+                self.groups[gi].active = starting;
+                need -= g.count;
+            } else {
+                self.groups[gi].count = g.count - need;
+                self.groups.push(Group { count: need, active: starting, ..g });
+                need = 0;
+            }
+        }
+    }
+
+    /// Merges groups whose modules are in bit-identical states (shared parameter set only).
+    fn merge(&mut self) {
+        self.groups.sort_unstable_by(identity_order);
+        let mut w = 0;
+        for r in 1..self.groups.len() {
+            let g = self.groups[r];
+            if same(&self.groups[w], &g) {
+                self.groups[w].count += g.count;
+            } else {
+                w += 1;
+                self.groups[w] = g;
+            }
+        }
+        self.groups.truncate(w + 1);
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &HubConfig {
+        &self.config
+    }
+
+    /// The groups (for inspection and saving).
+    pub fn groups(&self) -> &[Group] {
+        &self.groups
+    }
+
+    /// Totals since the start.
+    pub fn totals(&self) -> &HubTotals {
+        &self.totals
+    }
+
+    /// Model time [s].
+    pub fn time(&self) -> f64 {
+        self.totals.time
+    }
+
+    /// Electric power of the hub [W]: stack power of Steady modules plus start and standby power.
+    pub fn power(&self) -> f64 {
+        let op = &self.config.operation;
+        self.groups.iter().map(|g| g.count as f64 * g.unit.power(&self.types[g.kind as usize].params, op)).sum()
+    }
+
+    /// Hydrogen flow of the hub, c·ΣI [Nl/h].
+    pub fn h2_flow(&self) -> f64 {
+        self.groups.iter().map(|g| g.count as f64 * self.types[g.kind as usize].params.h2_coefficient * g.unit.stack_current()).sum()
+    }
+
+    /// Hydrogen flow of the hub [kg/h] (normal density 0.0899 kg/Nm³).
+    pub fn h2_mass_flow(&self) -> f64 {
+        self.h2_flow() * H2_KG_PER_NL
+    }
+
+    /// Number of modules in `state`.
+    pub fn count_in(&self, state: OperatingState) -> u32 {
+        self.groups.iter().filter(|g| g.unit.state == state).map(|g| g.count).sum()
+    }
+
+    /// The hub's dominant state: Steady if any module is Steady, else Curve, Standby,
+    /// Blowdown, Idle in that order (for one module: its state).
+    pub fn state(&self) -> OperatingState {
+        use OperatingState::*;
+        [Steady, Curve, Standby, Blowdown].into_iter().find(|&s| self.count_in(s) > 0).unwrap_or(Idle)
+    }
+
+    /// Modules dispatched to run.
+    pub fn running_target(&self) -> u32 {
+        self.running_target
+    }
+}
+
+/// Refuses configurations that cannot work; the message names the value.
+pub fn validate(config: &HubConfig) -> Result<(), ParameterError> {
+    config.operation.validate()?;
+    if config.n_modules == 0 {
+        return Err(ParameterError { name: "nModules", value: 0.0, requirement: "must be >= 1".into() });
+    }
+    if !(config.hysteresis.is_finite() && config.hysteresis >= 0.0) {
+        return Err(ParameterError { name: "hysteresis", value: config.hysteresis, requirement: "must be a finite number >= 0".into() });
+    }
+    if config.policy != DispatchPolicy::Equal && config.operation.below_minimum == BelowMinimum::Minimum {
+        return Err(ParameterError {
+            name: "belowMinimum",
+            value: 0.0,
+            requirement: format!(
+                "must be 1 (standby) or 2 (off) with dispatch = {} ({:?}): that policy switches modules off",
+                config.policy as i32, config.policy
+            ),
+        });
+    }
+    Ok(())
+}
+
+fn state_rank(s: OperatingState, starting: bool) -> u8 {
+    use OperatingState::*;
+    match (starting, s) {
+        (true, Standby) => 0,
+        (true, Idle) => 1,
+        (true, _) => 2,
+        (false, Curve) => 0,
+        (false, _) => 1,
+    }
+}
+
+/// Order of preference when switching modules on (`starting`) or off.
+fn preference(a: &Group, b: &Group, starting: bool, rotation: bool) -> Ordering {
+    let mut o = Ordering::Equal;
+    if rotation {
+        o = a.running.total_cmp(&b.running).then(a.starts.cmp(&b.starts));
+        if !starting {
+            o = o.reverse();
+        }
+    }
+    o.then(state_rank(a.unit.state, starting).cmp(&state_rank(b.unit.state, starting)))
+        .then_with(|| identity_order(a, b))
+}
+
+/// A total order on group contents (not counts), used for ties and merging.
+fn identity_order(a: &Group, b: &Group) -> Ordering {
+    a.kind
+        .cmp(&b.kind)
+        .then(a.active.cmp(&b.active))
+        .then(a.unit.state.cmp(&b.unit.state))
+        .then(a.unit.timer.total_cmp(&b.unit.timer))
+        .then(a.unit.current.current.total_cmp(&b.unit.current.current))
+        .then(a.unit.current.z1.total_cmp(&b.unit.current.z1))
+        .then(a.unit.current.z2.total_cmp(&b.unit.current.z2))
+        .then(a.running.total_cmp(&b.running))
+        .then(a.starts.cmp(&b.starts))
+}
+
+fn same(a: &Group, b: &Group) -> bool {
+    identity_order(a, b) == Ordering::Equal
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,199 @@
+use super::*;
+use crate::model::Module;
+
+fn config(n: u32, policy: DispatchPolicy, below: BelowMinimum) -> HubConfig {
+    HubConfig { n_modules: n, policy, operation: OperationParameters { below_minimum: below, ..Default::default() }, ..Default::default() }
+}
+
+fn run(hub: &mut Hub, demand: Demand, duration: f64, h: f64) {
+    for _ in 0..(duration / h).round() as usize {
+        hub.step(demand, h).unwrap();
+    }
+}
+
+#[test]
+fn one_module_hub_in_minimum_mode_is_the_paper_module() {
+    let p = Parameters::default();
+    let mut hub = Hub::new(p, HubConfig::default(), Demand::Setpoint(75.0)).unwrap();
+    let mut m = Module::new(p, 75.0).unwrap();
+    for (k, u) in [90.0, 20.0, 100.0, 65.0].iter().enumerate() {
+        for _ in 0..300 {
+            hub.step(Demand::Setpoint(*u), 1.0).unwrap();
+            m.step(*u, 1.0).unwrap();
+        }
+        assert_eq!(hub.state(), OperatingState::Steady);
+        assert_eq!(hub.h2_flow(), m.h2_flow(), "segment {k}");
+        assert_eq!(hub.power(), m.power(), "segment {k}");
+        assert!((hub.totals().energy - m.energy()).abs() <= 1e-12 * m.energy());
+        assert!((hub.totals().h2_produced - m.h2_produced()).abs() <= 1e-12 * m.h2_produced());
+    }
+}
+
+#[test]
+fn equal_hub_of_n_is_n_times_one_module() {
+    let p = Parameters::default();
+    let schedule = [(80.0, 600.0), (30.0, 900.0), (90.0, 800.0), (10.0, 4000.0), (70.0, 700.0)];
+    let n = 25_000;
+    let cfg = config(n, DispatchPolicy::Equal, BelowMinimum::Standby);
+    let mut hub = Hub::new(p, cfg, Demand::Setpoint(80.0)).unwrap();
+    let mut one = Hub::new(p, HubConfig { n_modules: 1, ..cfg }, Demand::Setpoint(80.0)).unwrap();
+    for &(u, d) in &schedule {
+        run(&mut hub, Demand::Setpoint(u), d, 1.0);
+        run(&mut one, Demand::Setpoint(u), d, 1.0);
+        assert_eq!(hub.groups().len(), 1, "an equal hub is one group");
+        assert_eq!(hub.state(), one.state());
+        assert_eq!(hub.power(), n as f64 * one.power());
+        assert_eq!(hub.h2_flow(), n as f64 * one.h2_flow());
+        let (a, b) = (hub.totals(), one.totals());
+        assert!((a.energy - n as f64 * b.energy).abs() <= 1e-12 * a.energy);
+        assert!((a.h2_produced - n as f64 * b.h2_produced).abs() <= 1e-12 * a.h2_produced);
+        assert_eq!(a.starts, n as u64 * b.starts);
+        assert!((a.running - n as f64 * b.running).abs() <= 1e-9 * a.running.max(1.0));
+    }
+    assert_eq!(hub.totals().starts, 2 * n as u64);
+}
+
+#[test]
+fn a_hub_told_a_constant_power_draws_it_in_steady_state() {
+    let p = Parameters::default();
+    for policy in [DispatchPolicy::Equal, DispatchPolicy::Sequential, DispatchPolicy::Rotation] {
+        for below in [BelowMinimum::Standby, BelowMinimum::Off] {
+            let mut hub = Hub::new(p, config(10, policy, below), Demand::Power(0.0)).unwrap();
+            assert_eq!(hub.count_in(OperatingState::Idle), 10);
+            // Equal reaches 10 × [P(60 %), P(100 %)] ≈ 13.9…23.5 kW only; the others go lower.
+            let low = if policy == DispatchPolicy::Equal { 14_500.0 } else { 4_000.0 };
+            for target in [17_000.0, low, 23_000.0] {
+                run(&mut hub, Demand::Power(target), 4.0 * 3600.0, 10.0);
+                let got = hub.power();
+                assert!((got - target).abs() < 1e-3 * target, "{policy:?} {below:?}: {got} W vs {target} W");
+            }
+        }
+    }
+}
+
+#[test]
+fn sequential_reaches_loads_an_equal_hub_cannot() {
+    let p = Parameters::default();
+    let nominal_flow = 10.0 * p.h2_coefficient * p.gain * 100.0;
+    for (policy, want) in [(DispatchPolicy::Sequential, 0.2), (DispatchPolicy::Equal, 0.0)] {
+        let mut hub = Hub::new(p, config(10, policy, BelowMinimum::Standby), Demand::Setpoint(20.0)).unwrap();
+        run(&mut hub, Demand::Setpoint(20.0), 3600.0, 1.0);
+        let share = hub.h2_flow() / nominal_flow;
+        assert!((share - want).abs() < 1e-12, "{policy:?}: {share}");
+    }
+    // 7 % of a 10-module hub = 70 % of one module: one module runs.
+    let mut hub = Hub::new(p, config(10, DispatchPolicy::Sequential, BelowMinimum::Off), Demand::Setpoint(7.0)).unwrap();
+    run(&mut hub, Demand::Setpoint(7.0), 600.0, 1.0);
+    assert_eq!(hub.count_in(OperatingState::Steady), 1);
+    assert!((hub.h2_flow() - 0.07 * nominal_flow).abs() < 1e-9 * nominal_flow);
+}
+
+#[test]
+fn starts_and_running_hours_are_counted() {
+    let p = Parameters::default();
+    let mut hub = Hub::new(p, config(10, DispatchPolicy::Sequential, BelowMinimum::Off), Demand::Setpoint(0.0)).unwrap();
+    run(&mut hub, Demand::Setpoint(25.0), 3600.0, 1.0);
+    let t = hub.totals();
+    assert_eq!(t.starts, 3);
+    assert_eq!(hub.count_in(OperatingState::Steady), 3);
+    // Cold start 300 s, then running for the rest of the hour.
+    assert!((t.running - 3.0 * 3300.0).abs() < 1e-6, "{}", t.running);
+}
+
+#[test]
+fn rotation_starts_the_module_with_fewest_hours() {
+    let p = Parameters::default();
+    let mut hub = Hub::new(p, config(3, DispatchPolicy::Rotation, BelowMinimum::Off), Demand::Setpoint(0.0)).unwrap();
+    for _ in 0..3 {
+        run(&mut hub, Demand::Setpoint(30.0), 1000.0, 1.0); // one module at 90 %
+        run(&mut hub, Demand::Setpoint(0.0), 1000.0, 1.0);
+    }
+    let mut hours: Vec<f64> = hub.groups().iter().flat_map(|g| std::iter::repeat(g.running).take(g.count as usize)).collect();
+    hours.sort_by(f64::total_cmp);
+    assert_eq!(hours, vec![700.0, 700.0, 700.0], "each module ran once");
+    // Sequential (no rotation) keeps reusing the same module.
+    let mut hub = Hub::new(p, config(3, DispatchPolicy::Sequential, BelowMinimum::Off), Demand::Setpoint(0.0)).unwrap();
+    for _ in 0..3 {
+        run(&mut hub, Demand::Setpoint(30.0), 1000.0, 1.0);
+        run(&mut hub, Demand::Setpoint(0.0), 1000.0, 1.0);
+    }
+    assert_eq!(hub.totals().starts, 3);
+}
+
+#[test]
+fn hysteresis_stops_chattering() {
+    let p = Parameters::default();
+    let mut hub = Hub::new(p, config(10, DispatchPolicy::Sequential, BelowMinimum::Standby), Demand::Setpoint(25.0)).unwrap();
+    // 25 % ↔ 19.8 % of the hub: 250 ↔ 198 module-%, within the 5 % band of 200: no stop.
+    for k in 0..100 {
+        run(&mut hub, Demand::Setpoint(if k % 2 == 0 { 19.8 } else { 25.0 }), 60.0, 1.0);
+    }
+    assert_eq!(hub.totals().starts, 0);
+    assert_eq!(hub.count_in(OperatingState::Steady), 3);
+}
+
+#[test]
+fn results_do_not_depend_on_the_step_size() {
+    let p = Parameters::default();
+    let schedule = [
+        Demand::Power(9_000.0),
+        Demand::Power(21_000.0),
+        Demand::Power(1_000.0),
+        Demand::Power(15_500.0),
+        Demand::Power(0.0),
+        Demand::Power(12_000.0),
+    ];
+    for policy in [DispatchPolicy::Sequential, DispatchPolicy::Rotation, DispatchPolicy::Equal] {
+        let sim = |h: f64| {
+            let mut hub = Hub::new(p, config(10, policy, BelowMinimum::Standby), Demand::Power(3_000.0)).unwrap();
+            let mut out = Vec::new();
+            for d in schedule {
+                run(&mut hub, d, 900.0, h);
+                out.push((hub.power(), hub.h2_flow(), *hub.totals()));
+            }
+            out
+        };
+        let reference = sim(30.0);
+        for h in [0.5, 1.0, 7.5] {
+            for (i, (a, b)) in sim(h).iter().zip(&reference).enumerate() {
+                let c = p.h2_coefficient;
+                assert!((a.1 - b.1).abs() < 1e-9 * c, "{policy:?} h={h} piece {i}: flow {} vs {}", a.1, b.1);
+                assert!((a.2.energy - b.2.energy).abs() < 1e-9 * b.2.energy.max(1.0), "{policy:?} h={h} piece {i}");
+                assert_eq!(a.2.starts, b.2.starts);
+                assert!((a.2.running - b.2.running).abs() < 1e-6);
+            }
+        }
+    }
+}
+
+#[test]
+fn individual_parameter_sets_share_a_power_reference() {
+    let base = Parameters::default();
+    let sets = crate::model::spread::spread_parameters(&base, 50, 0.03, 7);
+    let mut hub = Hub::with_parameter_sets(sets, config(50, DispatchPolicy::Equal, BelowMinimum::Off), Demand::Power(0.0)).unwrap();
+    // 1800 W per module: inside every spread module's window, so each inverts its own curve.
+    run(&mut hub, Demand::Power(90_000.0), 4.0 * 3600.0, 5.0);
+    assert!((hub.power() - 90_000.0).abs() < 1e-3 * 90_000.0, "{}", hub.power());
+    assert_eq!(hub.groups().len(), 50);
+}
+
+#[test]
+fn bad_combinations_are_refused_with_the_value() {
+    let p = Parameters::default();
+    let e = Hub::new(p, config(4, DispatchPolicy::Sequential, BelowMinimum::Minimum), Demand::Setpoint(50.0)).unwrap_err();
+    assert!(e.to_string().contains("belowMinimum = 0") && e.to_string().contains("dispatch = 2"), "{e}");
+    let e = Hub::new(p, config(0, DispatchPolicy::Equal, BelowMinimum::Minimum), Demand::Setpoint(50.0)).unwrap_err();
+    assert!(e.to_string().contains("nModules = 0"), "{e}");
+    let e = Hub::new(p, HubConfig { hysteresis: -1.0, ..Default::default() }, Demand::Setpoint(50.0)).unwrap_err();
+    assert!(e.to_string().contains("hysteresis = -1"), "{e}");
+    let e = Hub::with_parameter_sets(vec![p; 3], config(4, DispatchPolicy::Equal, BelowMinimum::Off), Demand::Setpoint(50.0)).unwrap_err();
+    assert!(e.to_string().contains("nModules = 4"), "{e}");
+    let flat = Parameters { voltage_intercept: 0.0, ohmic_resistance: 0.0, ..p };
+    assert!(Hub::new(flat, HubConfig::default(), Demand::Power(1e3)).is_err());
+    let mut hub = Hub::new(p, HubConfig::default(), Demand::Setpoint(70.0)).unwrap();
+    let before = hub.totals().clone();
+    assert!(hub.step(Demand::Power(f64::NAN), 1.0).is_err());
+    assert!(hub.step(Demand::Setpoint(70.0), 0.0).is_err());
+    assert!(hub.step(Demand::Setpoint(70.0), 1e308).is_err());
+    assert_eq!(*hub.totals(), before);
+}

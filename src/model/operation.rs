@@ -1,0 +1,471 @@
+//! Operating states of one module and their exact transitions.
+//!
+//! States are named after Enapter's public electrolyser state list (MQTT reference on
+//! developers.enapter.com: idle, curve, steady, standby, blowdown, …). The mapping is our
+//! reading of that list, not a vendor statement:
+//!
+//! | state      | meaning here                        | stack current | electric power   |
+//! |------------|-------------------------------------|---------------|------------------|
+//! | `Idle`     | off and cold                        | 0             | 0                |
+//! | `Curve`    | starting (cold or warm start)       | 0             | startPower       |
+//! | `Steady`   | running: the paper's dynamics       | G(s) + limit  | (V0 + R·I)·I     |
+//! | `Standby`  | kept warm; cold after standbyDuration | 0           | standbyPower     |
+//! | `Blowdown` | stopping, for stopDuration          | 0             | standbyPower     |
+//!
+//! Transitions, for a command held over a step (a run request with a setpoint, or stop):
+//! - Idle + run → Curve for coldStartTime; Standby + run → Curve for warmStartTime
+//!   (each counts one start). At the end of Curve the module is Steady in steady state at
+//!   the minimum setpoint, I = K·minSetpoint, and follows G(s) with the rate limit from there.
+//! - Curve + stop → Idle (the start is abandoned).
+//! - Steady + stop → Standby (belowMinimum = 1) or Blowdown (belowMinimum = 2).
+//! - Standby held for standbyDuration → Idle; Blowdown lasts stopDuration → Idle,
+//!   whatever the command (a run request waits for the end of Blowdown, then starts cold).
+//!
+//! All durations are known in advance, so a step is cut at each transition time and every
+//! piece is integrated in closed form ([`CurrentDynamics::advance`] while Steady, constant
+//! power otherwise): results do not depend on the communication step size.
+
+use std::fmt;
+
+use super::dynamics::{CurrentDynamics, CurrentState, StepFactors};
+use super::parameters::{ParameterError, Parameters};
+
+/// Operating state of a module; the discriminant is the FMU's Integer code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum OperatingState {
+    /// Off and cold.
+    Idle = 0,
+    /// Starting: no stack current, draws startPower.
+    Curve = 1,
+    /// Running: the paper's current dynamics.
+    Steady = 2,
+    /// Kept warm for a quick restart: no current, draws standbyPower.
+    Standby = 3,
+    /// Stopping: no current, draws standbyPower for stopDuration.
+    Blowdown = 4,
+}
+
+impl OperatingState {
+    /// All states, in code order.
+    pub const ALL: [OperatingState; 5] = [Self::Idle, Self::Curve, Self::Steady, Self::Standby, Self::Blowdown];
+
+    /// The state's Integer code (0…4).
+    pub fn code(self) -> i32 {
+        self as i32
+    }
+}
+
+/// What a module does when it is asked for less than its minimum setpoint (or stopped).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BelowMinimum {
+    /// 0: keep running at minSetpoint (the paper's model; the module never stops).
+    Minimum = 0,
+    /// 1: go to Standby (warm).
+    Standby = 1,
+    /// 2: go through Blowdown to Idle (off).
+    Off = 2,
+}
+
+impl BelowMinimum {
+    /// From the FMU's Integer code; the error names the value.
+    pub fn from_code(code: i64) -> Result<Self, ParameterError> {
+        match code {
+            0 => Ok(Self::Minimum),
+            1 => Ok(Self::Standby),
+            2 => Ok(Self::Off),
+            _ => Err(ParameterError {
+                name: "belowMinimum",
+                value: code as f64,
+                requirement: "must be 0 (stay at minimum), 1 (standby) or 2 (off)".into(),
+            }),
+        }
+    }
+}
+
+/// Start-up, standby and shut-down parameters. Defaults are ASSUMPTIONS (the paper gives
+/// no measured values); see documentation/index.html for the reasoning behind each.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OperationParameters {
+    /// Start from Idle (cold) to current [s]; assumed 300 s.
+    pub cold_start_time: f64,
+    /// Start from Standby (warm) to current [s]; assumed 30 s.
+    pub warm_start_time: f64,
+    /// Electric power while starting (Curve) [W]; assumed 300 W.
+    pub start_power: f64,
+    /// Electric power in Standby and Blowdown [W]; assumed 100 W.
+    pub standby_power: f64,
+    /// Time in Standby before the module is cold (Idle) [s]; assumed 3600 s.
+    pub standby_duration: f64,
+    /// Duration of Blowdown (stopping) [s]; assumed 60 s.
+    pub stop_duration: f64,
+    /// Where a module asked for less than minSetpoint goes.
+    pub below_minimum: BelowMinimum,
+}
+
+impl Default for OperationParameters {
+    fn default() -> Self {
+        OperationParameters {
+            cold_start_time: 300.0,
+            warm_start_time: 30.0,
+            start_power: 300.0,
+            standby_power: 100.0,
+            standby_duration: 3600.0,
+            stop_duration: 60.0,
+            below_minimum: BelowMinimum::Minimum,
+        }
+    }
+}
+
+impl OperationParameters {
+    /// Every duration and power must be finite and ≥ 0; the error names the value.
+    pub fn validate(&self) -> Result<(), ParameterError> {
+        for (name, value) in [
+            ("coldStartTime", self.cold_start_time),
+            ("warmStartTime", self.warm_start_time),
+            ("startPower", self.start_power),
+            ("standbyPower", self.standby_power),
+            ("standbyDuration", self.standby_duration),
+            ("stopDuration", self.stop_duration),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(ParameterError { name, value, requirement: "must be a finite number >= 0".into() });
+            }
+        }
+        if self.warm_start_time > self.cold_start_time {
+            return Err(ParameterError {
+                name: "warmStartTime",
+                value: self.warm_start_time,
+                requirement: format!("must not exceed coldStartTime = {} s", self.cold_start_time),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// A command held over a step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Command {
+    /// Run (start if needed) at this setpoint [%], clamped to the operating window.
+    Run(f64),
+    /// Stop: go to Standby or Blowdown/Idle as belowMinimum says.
+    Stop,
+}
+
+/// The time-varying state of one module.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UnitState {
+    /// Operating state.
+    pub state: OperatingState,
+    /// Time left in Curve, Standby or Blowdown [s]; 0 in Idle and Steady.
+    pub timer: f64,
+    /// Current dynamics; all zero unless Steady.
+    pub current: CurrentState,
+}
+
+/// What one module did during a step (per module; a group multiplies by its count).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct UnitTotals {
+    /// Electric energy [J]: stack ∫(V0·I + R·I²)dt plus start/standby power × time.
+    pub energy: f64,
+    /// Charge through the stack ∫I dt [A·s].
+    pub charge: f64,
+    /// Time spent Steady [s].
+    pub running: f64,
+    /// Starts (entries into Curve).
+    pub starts: u32,
+}
+
+const ZERO_CURRENT: CurrentState = CurrentState { z1: 0.0, z2: 0.0, current: 0.0 };
+
+impl UnitState {
+    /// Idle (cold, off).
+    pub fn idle() -> Self {
+        UnitState { state: OperatingState::Idle, timer: 0.0, current: ZERO_CURRENT }
+    }
+
+    /// Steady in steady state at `setpoint` [%] (clamped).
+    pub fn steady(params: &Parameters, dynamics: &CurrentDynamics, setpoint: f64) -> Self {
+        UnitState { state: OperatingState::Steady, timer: 0.0, current: dynamics.steady_state(params.clamp_setpoint(setpoint)) }
+    }
+
+    /// Stack current [A].
+    pub fn stack_current(&self) -> f64 {
+        self.current.current
+    }
+
+    /// Electric power now [W]: (V0 + R·I)·I when Steady, else the state's constant power.
+    pub fn power(&self, params: &Parameters, op: &OperationParameters) -> f64 {
+        match self.state {
+            OperatingState::Steady => {
+                let i = self.current.current;
+                (params.voltage_intercept + params.ohmic_resistance * i) * i
+            }
+            OperatingState::Curve => op.start_power,
+            OperatingState::Standby | OperatingState::Blowdown => op.standby_power,
+            OperatingState::Idle => 0.0,
+        }
+    }
+
+    /// Advances by `h` > 0 seconds under `command`, cutting the step at every transition.
+    /// `h` and the setpoint must be finite (the caller checks).
+    #[inline]
+    pub fn advance(
+        &mut self,
+        params: &Parameters,
+        dynamics: &CurrentDynamics,
+        factors: &mut StepFactors,
+        op: &OperationParameters,
+        command: Command,
+        h: f64,
+    ) -> UnitTotals {
+        use OperatingState::*;
+        let mut totals = UnitTotals::default();
+        let mut left = h;
+        // Each pass either uses up the rest of the step or moves along a finite chain of
+        // transitions (at most Blowdown → Idle → Curve → Steady), so the loop ends.
+        loop {
+            match (self.state, command) {
+                (Steady, Run(u)) => {
+                    self.run(params, dynamics, factors, u, left, h, &mut totals);
+                    return totals;
+                }
+                (Steady, Stop) => match op.below_minimum {
+                    BelowMinimum::Minimum => {
+                        self.run(params, dynamics, factors, params.min_setpoint, left, h, &mut totals);
+                        return totals;
+                    }
+                    BelowMinimum::Standby => *self = timed(Standby, op.standby_duration),
+                    BelowMinimum::Off => *self = timed(Blowdown, op.stop_duration),
+                },
+                (Idle, Stop) => return totals,
+                (Idle, Run(_)) => {
+                    *self = timed(Curve, op.cold_start_time);
+                    totals.starts += 1;
+                }
+                (Standby, Run(_)) => {
+                    *self = timed(Curve, op.warm_start_time);
+                    totals.starts += 1;
+                }
+                (Curve, Stop) => *self = UnitState::idle(),
+                (Curve, Run(_)) => {
+                    if self.wait(op.start_power, &mut left, &mut totals) {
+                        return totals;
+                    }
+                    // Start complete: current appears at K·minSetpoint in steady state.
+                    *self = UnitState::steady(params, dynamics, params.min_setpoint);
+                }
+                (Standby, Stop) | (Blowdown, _) => {
+                    if self.wait(op.standby_power, &mut left, &mut totals) {
+                        return totals;
+                    }
+                    *self = UnitState::idle();
+                }
+            }
+        }
+    }
+
+    /// Steady for `length` seconds at setpoint `u` (clamped); reuses the step factors when the
+    /// piece is the whole step.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn run(
+        &mut self,
+        params: &Parameters,
+        dynamics: &CurrentDynamics,
+        factors: &mut StepFactors,
+        u: f64,
+        length: f64,
+        h: f64,
+        totals: &mut UnitTotals,
+    ) {
+        if length <= 0.0 {
+            return;
+        }
+        let u = params.clamp_setpoint(u);
+        let ints = if length == h {
+            dynamics.advance(&mut self.current, u, length, factors)
+        } else {
+            dynamics.advance(&mut self.current, u, length, &mut StepFactors::default())
+        };
+        totals.energy += params.voltage_intercept * ints.charge + params.ohmic_resistance * ints.current_squared;
+        totals.charge += ints.charge;
+        totals.running += length;
+    }
+
+    /// Spends time in a timed state at constant `power` [W]. Returns true if the step ends
+    /// first (the timer keeps the rest), false if the timer ran out (`left` reduced).
+    #[inline]
+    fn wait(&mut self, power: f64, left: &mut f64, totals: &mut UnitTotals) -> bool {
+        if self.timer > *left {
+            self.timer -= *left;
+            totals.energy += power * *left;
+            *left = 0.0;
+            true
+        } else {
+            totals.energy += power * self.timer;
+            *left -= self.timer;
+            self.timer = 0.0;
+            false
+        }
+    }
+}
+
+use Command::{Run, Stop};
+
+fn timed(state: OperatingState, duration: f64) -> UnitState {
+    UnitState { state, timer: duration, current: ZERO_CURRENT }
+}
+
+impl fmt::Display for OperatingState {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let name = match self {
+            OperatingState::Idle => "idle",
+            OperatingState::Curve => "curve",
+            OperatingState::Steady => "steady",
+            OperatingState::Standby => "standby",
+            OperatingState::Blowdown => "blowdown",
+        };
+        f.write_str(name)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Rig {
+        p: Parameters,
+        d: CurrentDynamics,
+        f: StepFactors,
+        op: OperationParameters,
+        s: UnitState,
+        totals: UnitTotals,
+    }
+
+    impl Rig {
+        fn new(below: BelowMinimum, s: impl Fn(&Parameters, &CurrentDynamics) -> UnitState) -> Rig {
+            let p = Parameters::default();
+            let d = CurrentDynamics::new(&p);
+            let op = OperationParameters { below_minimum: below, ..OperationParameters::default() };
+            let s = s(&p, &d);
+            Rig { p, d, f: StepFactors::default(), op, s, totals: UnitTotals::default() }
+        }
+        fn run(&mut self, c: Command, duration: f64, h: f64) {
+            let n = (duration / h).round() as usize;
+            for _ in 0..n {
+                let t = self.s.advance(&self.p, &self.d, &mut self.f, &self.op, c, h);
+                self.totals.energy += t.energy;
+                self.totals.charge += t.charge;
+                self.totals.running += t.running;
+                self.totals.starts += t.starts;
+            }
+        }
+    }
+
+    #[test]
+    fn a_cold_start_takes_cold_start_time_and_draws_start_power() {
+        let mut r = Rig::new(BelowMinimum::Off, |_, _| UnitState::idle());
+        r.run(Run(80.0), 299.0, 1.0);
+        assert_eq!(r.s.state, OperatingState::Curve);
+        assert_eq!(r.totals.charge, 0.0);
+        assert!((r.totals.energy - 300.0 * 299.0).abs() < 1e-9);
+        assert_eq!(r.totals.starts, 1);
+        r.run(Run(80.0), 1.0, 1.0);
+        assert_eq!(r.s.state, OperatingState::Steady);
+        // The start ends exactly at 300 s with I = K·minSetpoint (the step ends there too).
+        assert!((r.s.stack_current() - 0.534 * 60.0).abs() < 1e-12);
+        assert!((r.totals.energy - 300.0 * 300.0).abs() < 1e-9);
+        assert_eq!(r.totals.running, 0.0);
+    }
+
+    #[test]
+    fn current_after_a_start_is_the_ramp_from_the_minimum() {
+        // One 310 s step from Idle: 300 s Curve, then 10 s ramping from K·60 at r (the
+        // paper's 60 → 80 % response rises faster than r at first).
+        let mut r = Rig::new(BelowMinimum::Off, |_, _| UnitState::idle());
+        r.run(Run(80.0), 310.0, 310.0);
+        let want = 0.534 * 60.0 + r.p.ramp_up_limit * 10.0;
+        assert!((r.s.stack_current() - want).abs() < 1e-9, "{} vs {want}", r.s.stack_current());
+        let charge = 0.534 * 60.0 * 10.0 + 0.5 * r.p.ramp_up_limit * 100.0;
+        assert!((r.totals.charge - charge).abs() < 1e-9);
+        assert!((r.totals.running - 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_warm_start_from_standby_takes_warm_start_time() {
+        let mut r = Rig::new(BelowMinimum::Standby, |p, d| UnitState::steady(p, d, 70.0));
+        r.run(Stop, 100.0, 1.0);
+        assert_eq!(r.s.state, OperatingState::Standby);
+        assert!((r.totals.energy - 100.0 * 100.0).abs() < 1e-9);
+        r.run(Run(70.0), 29.5, 0.5);
+        assert_eq!(r.s.state, OperatingState::Curve);
+        r.run(Run(70.0), 0.5, 0.5);
+        assert_eq!(r.s.state, OperatingState::Steady);
+        assert!((r.totals.energy - (100.0 * 100.0 + 300.0 * 30.0)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn standby_times_out_to_idle_and_blowdown_lasts_stop_duration() {
+        let mut r = Rig::new(BelowMinimum::Standby, |p, d| UnitState::steady(p, d, 70.0));
+        r.run(Stop, 4000.0, 7.0 / 3.0 * 3.0);
+        assert_eq!(r.s.state, OperatingState::Idle);
+        assert!((r.totals.energy - 100.0 * 3600.0).abs() < 1e-6);
+        let mut r = Rig::new(BelowMinimum::Off, |p, d| UnitState::steady(p, d, 70.0));
+        r.run(Stop, 59.0, 1.0);
+        assert_eq!(r.s.state, OperatingState::Blowdown);
+        r.run(Stop, 1.0, 1.0);
+        assert_eq!(r.s.state, OperatingState::Idle);
+        assert!((r.totals.energy - 100.0 * 60.0).abs() < 1e-9);
+        // A run request during Blowdown waits for its end, then starts cold.
+        let mut r = Rig::new(BelowMinimum::Off, |p, d| UnitState::steady(p, d, 70.0));
+        r.run(Stop, 20.0, 1.0);
+        r.run(Run(70.0), 340.0, 340.0);
+        assert_eq!(r.s.state, OperatingState::Steady);
+        assert!((r.totals.energy - (100.0 * 60.0 + 300.0 * 300.0)).abs() < 1e-9);
+        assert_eq!(r.totals.starts, 1);
+    }
+
+    #[test]
+    fn minimum_mode_never_stops() {
+        let mut r = Rig::new(BelowMinimum::Minimum, |p, d| UnitState::steady(p, d, 90.0));
+        r.run(Stop, 3000.0, 1.0);
+        assert_eq!(r.s.state, OperatingState::Steady);
+        assert!((r.s.stack_current() - 0.534 * 60.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn transitions_do_not_depend_on_the_step_size() {
+        let schedule = [(Run(90.0), 450.0), (Stop, 120.0), (Run(75.0), 600.0), (Stop, 3900.0), (Run(100.0), 900.0)];
+        let run = |below, h: f64| {
+            let mut r = Rig::new(below, |_, _| UnitState::idle());
+            let mut out = Vec::new();
+            for &(c, d) in &schedule {
+                r.run(c, d, h);
+                out.push((r.s.state, r.s.stack_current(), r.totals));
+            }
+            out
+        };
+        for below in [BelowMinimum::Standby, BelowMinimum::Off] {
+            let reference = run(below, 30.0);
+            for h in [0.1, 0.5, 1.0, 7.5, 15.0] {
+                for (i, (got, want)) in run(below, h).iter().zip(&reference).enumerate() {
+                    assert_eq!(got.0, want.0, "h={h} piece {i}");
+                    assert!((got.1 - want.1).abs() < 1e-9, "h={h} piece {i}: {} vs {}", got.1, want.1);
+                    assert!((got.2.energy - want.2.energy).abs() < 1e-9 * want.2.energy.max(1.0), "h={h} piece {i}: {:?} vs {:?}", got, want);
+                    assert!((got.2.running - want.2.running).abs() < 1e-8, "h={h} piece {i}");
+                    assert_eq!(got.2.starts, want.2.starts);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn bad_operation_parameters_are_named() {
+        let mut op = OperationParameters { stop_duration: -1.0, ..Default::default() };
+        assert_eq!(op.validate().unwrap_err().name, "stopDuration");
+        op = OperationParameters { warm_start_time: 400.0, ..Default::default() };
+        let e = op.validate().unwrap_err();
+        assert!(e.to_string().contains("warmStartTime = 400"), "{e}");
+        assert!(BelowMinimum::from_code(3).unwrap_err().to_string().contains("belowMinimum = 3"));
+    }
+}
