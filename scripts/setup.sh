@@ -16,7 +16,8 @@ apt_install() {
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "$@" >/dev/null
 }
 
-if [ -z "${LIBCLANG_PATH:-}" ] && ! ldconfig -p 2>/dev/null | grep -qE 'libclang(-[0-9.]+)?\.so'; then
+# (grep without -q reads all of ldconfig's output, so pipefail never sees a SIGPIPE.)
+if [ -z "${LIBCLANG_PATH:-}" ] && ! { /sbin/ldconfig -p 2>/dev/null || true; } | grep -E 'libclang(-[0-9.]+)?\.so' >/dev/null; then
   echo "setup: installing libclang-dev (needed by bindgen)"
   apt_install libclang-dev
 fi
@@ -25,6 +26,9 @@ if ! command -v gcc >/dev/null || ! command -v valgrind >/dev/null; then
   echo "setup: installing gcc, libc6-dev and valgrind (the C master and its memory test)"
   apt_install gcc libc6-dev valgrind
 fi
+
+# Debian's own python3 needs python3-venv for `python3 -m venv`.
+python3 -c 'import ensurepip' 2>/dev/null || apt_install python3-venv
 
 if [ ! -x .venv/bin/python ] || ! cmp -s requirements.txt .venv/requirements.installed; then
   echo "setup: creating .venv from requirements.txt"

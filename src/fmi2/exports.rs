@@ -88,9 +88,7 @@ unsafe fn slice<'a, T>(ptr: *const T, n: usize, what: &str) -> Result<&'a [T], F
     if n == 0 {
         return Ok(&[]);
     }
-    if ptr.is_null() {
-        return Err(error(format!("{what} is a null pointer for {n} values")));
-    }
+    check_array(ptr, n, what)?;
     Ok(unsafe { std::slice::from_raw_parts(ptr, n) })
 }
 
@@ -102,10 +100,23 @@ unsafe fn slice_mut<'a, T>(ptr: *mut T, n: usize, what: &str) -> Result<&'a mut 
     if n == 0 {
         return Ok(&mut []);
     }
+    check_array(ptr, n, what)?;
+    Ok(unsafe { std::slice::from_raw_parts_mut(ptr, n) })
+}
+
+/// The preconditions of a slice that can be checked: non-null, aligned, a length whose byte
+/// size fits in isize.
+fn check_array<T>(ptr: *const T, n: usize, what: &str) -> Result<(), Failure> {
     if ptr.is_null() {
         return Err(error(format!("{what} is a null pointer for {n} values")));
     }
-    Ok(unsafe { std::slice::from_raw_parts_mut(ptr, n) })
+    if !ptr.is_aligned() {
+        return Err(error(format!("{what} is not aligned for its type")));
+    }
+    if n > isize::MAX as usize / std::mem::size_of::<T>().max(1) {
+        return Err(error(format!("{what}: {n} values is more than any array can hold")));
+    }
+    Ok(())
 }
 
 /// A writable single value.
@@ -241,7 +252,8 @@ pub unsafe extern "C" fn fmi2SetDebugLogging(
 }
 const _: sys::fmi2SetDebugLoggingTYPE = Some(fmi2SetDebugLogging);
 
-/// Sets the start time (tolerance and stop time are not needed by the exact integration).
+/// Sets the start time and the stop time past which steps are refused (the tolerance is not
+/// needed by the exact integration).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetupExperiment(
     c: fmi2Component,

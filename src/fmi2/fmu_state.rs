@@ -19,6 +19,7 @@ const SAVED_MAGIC: u64 = 0x4145_4d5f_5354_4154; // "AEM_STAT"
 
 /// A complete copy of an instance's state.
 #[derive(Clone, Debug, PartialEq)]
+#[repr(C)]
 pub struct SavedState {
     magic: u64,
     /// FMI state of the instance.

@@ -11,7 +11,7 @@ use super::fmu_state::SavedState;
 use super::logger::{Logger, LOG_EVENTS};
 use super::state_machine::FmiState;
 use super::status::{discard, error, CallResult, Status};
-use super::variables::{output, parameter_mut};
+use super::variables::{input_mut, output, parameter_mut};
 
 /// Relative tolerance when comparing a master's communication point with the FMU's time;
 /// masters that sum their step sizes drift by a few ulps from any other sum.
@@ -22,7 +22,9 @@ const WINDOW_TOLERANCE: f64 = 1e-9;
 
 const INSTANCE_MAGIC: u64 = 0x4145_4d5f_494e_5354; // "AEM_INST"
 
-/// The state of one instance.
+/// The state of one instance. `repr(C)` with the magic first, so a foreign pointer is
+/// probed at offset 0 only.
+#[repr(C)]
 pub struct Instance {
     magic: u64,
     /// The importer's logger.
@@ -48,7 +50,7 @@ impl Instance {
             logger,
             state: FmiState::Instantiated,
             params: Parameters::default(),
-            setpoint: RealVariable::Setpoint.start().unwrap_or(100.0),
+            setpoint: crate::model_description::start::SETPOINT,
             setpoint_slope: 0.0,
             excursion: false,
             time: 0.0,
@@ -126,7 +128,10 @@ impl Instance {
     /// The value of one Real variable.
     fn real(&self, var: RealVariable) -> Result<f64, String> {
         match var.causality() {
-            Causality::Input => Ok(self.setpoint),
+            Causality::Input => {
+                let mut setpoint = self.setpoint;
+                input_mut(&mut setpoint, var).map(|v| *v).ok_or_else(|| format!("{} is not an input", var.name()))
+            }
             Causality::Parameter => {
                 let mut params = self.params;
                 parameter_mut(&mut params, var).map(|v| *v).ok_or_else(|| format!("{} is not a parameter", var.name()))
@@ -165,7 +170,11 @@ impl Instance {
                 return Err(error(format!("{} = {} refused: not a finite number", var.name(), shown(*value))));
             }
             match var.causality() {
-                Causality::Input => setpoint = *value,
+                Causality::Input => {
+                    if let Some(field) = input_mut(&mut setpoint, var) {
+                        *field = *value;
+                    }
+                }
                 Causality::Parameter => {
                     if self.state == FmiState::StepComplete {
                         return Err(error(format!(
@@ -183,10 +192,6 @@ impl Instance {
             }
         }
         self.params = params;
-        if vrs.contains(&RealVariable::Setpoint.value_reference()) {
-            // A new input value starts a new interpolation: its derivative must be set again.
-            self.setpoint_slope = 0.0;
-        }
         self.setpoint = setpoint;
         if self.state == FmiState::StepComplete {
             Ok(self.update_excursion())
@@ -199,24 +204,32 @@ impl Instance {
     /// values are checked before any is applied.
     pub fn set_input_derivatives(&mut self, vrs: &[u32], orders: &[i32], values: &[f64]) -> CallResult {
         let mut slope = self.setpoint_slope;
+        let mut ignored = Vec::new();
         for ((vr, order), value) in vrs.iter().zip(orders).zip(values) {
             let var = known_variable(*vr)?;
-            if var.causality() != Causality::Input {
+            if input_mut(&mut 0.0, var).is_none() {
                 return Err(error(format!("{} is not an input: only inputs take derivatives", var.name())));
             }
-            if *order != 1 {
-                return Err(error(format!(
-                    "derivative order {order} of {} refused: only first derivatives are interpolated",
-                    var.name()
-                )));
+            if *order < 1 {
+                return Err(error(format!("derivative order {order} of {} refused: orders start at 1", var.name())));
             }
             if !value.is_finite() {
                 return Err(error(format!("d({})/dt = {} refused: not a finite number", var.name(), shown(*value))));
             }
-            slope = *value;
+            match (var, *order) {
+                (RealVariable::Setpoint, 1) => slope = *value,
+                _ => ignored.push(format!("order {order} of {}", var.name())),
+            }
         }
         self.setpoint_slope = slope;
-        Ok(Status::Ok)
+        if ignored.is_empty() {
+            return Ok(Status::Ok);
+        }
+        self.logger.warning(&format!(
+            "fmi2SetRealInputDerivatives: {} ignored: the input is interpolated linearly (first derivative only)",
+            ignored.join(", ")
+        ));
+        Ok(Status::Warning)
     }
 
     /// Logs a warning when the setpoint leaves the operating window (once per excursion).
@@ -271,7 +284,9 @@ impl Instance {
         // The input is u(t) = setpoint + slope·(t − t_c) over this step (slope 0 unless the
         // master set a derivative at this communication point).
         module.step_interpolated(self.setpoint, self.setpoint_slope, h).map_err(|e| error(e.to_string()))?;
-        self.time += h;
+        // Resynchronise to the master's clock: whether it sums its steps or computes t0 + n·h,
+        // the FMU's time never drifts away from it.
+        self.time = communication_point + h;
         self.setpoint_slope = 0.0;
         Ok(Status::Ok)
     }

@@ -30,9 +30,15 @@ impl FmiState {
         }
     }
 
-    /// Stable number for serialised states.
+    /// Stable number for serialised states (independent of the table's bit layout).
     pub const fn code(self) -> u8 {
-        self.bit()
+        match self {
+            FmiState::Instantiated => 1,
+            FmiState::InitializationMode => 2,
+            FmiState::StepComplete => 4,
+            FmiState::Terminated => 8,
+            FmiState::Error => 16,
+        }
     }
 
     /// Inverse of [`FmiState::code`].

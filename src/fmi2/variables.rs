@@ -23,6 +23,18 @@ pub fn parameter_mut(params: &mut Parameters, var: RealVariable) -> Option<&mut 
     }
 }
 
+/// The input field behind `var` (given the instance's setpoint), or None if `var` is not an
+/// input. Exhaustive like the others, so a second input in the XML cannot alias this one.
+pub fn input_mut(setpoint: &mut f64, var: RealVariable) -> Option<&mut f64> {
+    use RealVariable::*;
+    match var {
+        Setpoint => Some(setpoint),
+        Current | Voltage | Power | H2Flow | Energy | H2Produced | Gain | TauZero | TauPole1 | TauPole2
+        | RampUpLimit | VoltageIntercept | OhmicResistance | H2Coefficient | NominalCurrent | MinSetpoint
+        | MaxSetpoint => None,
+    }
+}
+
 /// The value of output `var` of `module`, or None if `var` is not an output.
 pub fn output(var: RealVariable, module: &Module) -> Option<f64> {
     use RealVariable::*;
@@ -51,6 +63,7 @@ mod tests {
             let is_param = parameter_mut(&mut p, var).is_some();
             assert_eq!(is_param, var.causality() == Causality::Parameter, "{var:?}");
             assert_eq!(output(var, &m).is_some(), var.causality() == Causality::Output, "{var:?}");
+            assert_eq!(input_mut(&mut 0.0, var).is_some(), var.causality() == Causality::Input, "{var:?}");
             if is_param {
                 assert_eq!(parameter_mut(&mut p, var).map(|v| *v), var.start(), "{var:?}");
             }

@@ -34,6 +34,8 @@ pub struct ModuleState {
 pub enum StepError {
     /// The setpoint [%] is NaN or infinite.
     NonFiniteSetpoint(f64),
+    /// The setpoint's rate of change [%/s] is NaN or infinite.
+    NonFiniteSlope(f64),
     /// The step size [s] is not a finite positive number.
     InvalidStepSize(f64),
     /// A step of this size [s] would take the totals past the largest representable number.
@@ -44,6 +46,7 @@ impl fmt::Display for StepError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             StepError::NonFiniteSetpoint(v) => write!(f, "setpoint = {} % is not a finite number", shown(*v)),
+            StepError::NonFiniteSlope(v) => write!(f, "setpoint slope = {} %/s is not a finite number", shown(*v)),
             StepError::InvalidStepSize(h) => write!(f, "step size = {} s must be finite and > 0", shown(*h)),
             StepError::Overflow(h) => write!(f, "a step of {} s would overflow the energy or hydrogen totals", shown(*h)),
         }
@@ -122,7 +125,7 @@ impl Module {
             return Err(StepError::NonFiniteSetpoint(setpoint));
         }
         if !slope.is_finite() {
-            return Err(StepError::NonFiniteSetpoint(slope));
+            return Err(StepError::NonFiniteSlope(slope));
         }
         if !(h.is_finite() && h > 0.0) {
             return Err(StepError::InvalidStepSize(h));
@@ -169,7 +172,8 @@ impl Module {
         let energy = self.state.energy + p.voltage_intercept * ints.charge + p.ohmic_resistance * ints.current_squared;
         let h2_produced = self.state.h2_produced + self.h2_per_coulomb * ints.charge;
         let time = self.state.time + h;
-        if !(energy.is_finite() && h2_produced.is_finite() && time.is_finite() && current.current.is_finite()) {
+        let states_finite = current.current.is_finite() && current.z1.is_finite() && current.z2.is_finite();
+        if !(energy.is_finite() && h2_produced.is_finite() && time.is_finite() && states_finite) {
             return Err(StepError::Overflow(h));
         }
         self.state = ModuleState { time, current, energy, h2_produced };

@@ -19,7 +19,6 @@ pub fn monotone_root(f: impl Fn(f64) -> (f64, f64, f64), lo: f64, hi: f64, f_lo:
     if !(x > a && x < b) {
         x = 0.5 * (a + b);
     }
-    let mut previous_step = f64::INFINITY;
     for _ in 0..200 {
         let (fx, d1, d2) = f(x);
         if fx == 0.0 {
@@ -37,19 +36,14 @@ pub fn monotone_root(f: impl Fn(f64) -> (f64, f64, f64), lo: f64, hi: f64, f_lo:
         let newton = x - fx / d1;
         if !(newton > a && newton < b) {
             x = 0.5 * (a + b);
-            previous_step = f64::INFINITY;
             continue;
         }
         let halley = x - 2.0 * fx * d1 / (2.0 * d1 * d1 - fx * d2);
         let next = if halley > a && halley < b { halley } else { newton };
-        let step = (next - x).abs();
-        // In the cubic (or quadratic) regime, seen as a step far below the previous one, a
-        // step below 1e-7 of the bracket lands within rounding of the root: take it and stop.
-        let converged = step <= 1e-7 * (hi - lo) && step <= 1e-3 * previous_step;
-        if converged || step <= 4.0 * f64::EPSILON * x.abs() {
+        // Converged when the step is within a few ulps of the iterate.
+        if (next - x).abs() <= 4.0 * f64::EPSILON * x.abs() {
             return next;
         }
-        previous_step = step;
         x = next;
     }
     x

@@ -834,8 +834,8 @@ BAD_CALLS = [
     BadCall("do-step-foreign-component", S, foreign_component("fmi2DoStep", 0.0, 1.0, 1), words=None),
     # Unsupported functions (model description: no derivatives, no asynchronous steps).
     # Input derivatives (canInterpolateInputs): only the first derivative of the input.
-    BadCall("input-derivative-order-2", S, plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(2), reals(0.1)),
-            words=("fmi2SetRealInputDerivatives", "order 2")),
+    BadCall("input-derivative-order-0", S, plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(0), reals(0.1)),
+            words=("fmi2SetRealInputDerivatives", "order 0")),
     BadCall("input-derivative-of-output", S, plain("fmi2SetRealInputDerivatives", uints(1), 1, ints(1), reals(0.1)),
             words=("fmi2SetRealInputDerivatives", "current", "not an input")),
     BadCall("input-derivative-nan", S, plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(1), reals(float("nan"))),
