@@ -234,39 +234,94 @@ impl CurrentDynamics {
             e1_len: decay.e1,
             e2_len: decay.e2,
         };
-        let (points, count) = curve.monotone_pieces();
         // M: running minimum of h(τ) = I_tf(τ) − rτ; the current is I(τ) = M + rτ.
-        let mut m = start;
-        let mut out = CurrentIntegrals::default();
-        for window in points[..count].windows(2) {
-            let (p, q) = (window[0], window[1]);
-            if q.t <= p.t {
-                continue;
+        let mut walk = RunningMinimum { m: start, out: CurrentIntegrals::default() };
+        // h'' vanishes at most once (the inflection); between 0, it and len, h' is monotone, so
+        // h is monotone, rises then falls, or falls then rises on each sub-interval.
+        let mut p = curve.point(0.0);
+        for q in curve.inflection().into_iter().chain(std::iter::once(curve.point(h))) {
+            if q.t > p.t {
+                let (sp, sq) = (curve.derivatives(&p)[1], curve.derivatives(&q)[1]);
+                if sp > 0.0 && sq < 0.0 {
+                    // Rises then falls. If h ends at or above M, or starts strictly above it
+                    // (so h − M is positive up to one crossing and negative after it, all the
+                    // bracketed search needs), the top need not be located.
+                    let (hp, hq) = (curve.h(&p), curve.h(&q));
+                    if hq >= walk.m {
+                        self.add_ramp(&mut walk.out, walk.m, p.t, q.t);
+                    } else if hp > walk.m {
+                        self.falling(&mut walk, &curve, dev1, dev2, &p, &q, decay);
+                    } else {
+                        let top = curve.point(self.slope_root(&curve, &p, &q, sp, sq));
+                        self.add_ramp(&mut walk.out, walk.m, p.t, top.t);
+                        self.falling(&mut walk, &curve, dev1, dev2, &top, &q, decay);
+                    }
+                } else if sp < 0.0 && sq > 0.0 {
+                    // Falls then rises: the bottom matters.
+                    let bottom = curve.point(self.slope_root(&curve, &p, &q, sp, sq));
+                    self.falling(&mut walk, &curve, dev1, dev2, &p, &bottom, decay);
+                    self.add_ramp(&mut walk.out, walk.m, bottom.t, q.t);
+                } else if sp <= 0.0 && sq <= 0.0 {
+                    self.falling(&mut walk, &curve, dev1, dev2, &p, &q, decay);
+                } else {
+                    // h rises: the running minimum holds, the current ramps.
+                    self.add_ramp(&mut walk.out, walk.m, p.t, q.t);
+                }
             }
-            let (hp, hq) = (curve.h(&p), curve.h(&q));
-            if hq >= hp || hq >= m {
-                // h rises (or stays above M): the running minimum holds, the current ramps.
-                self.add_ramp(&mut out, m, p.t, q.t);
-            } else if hp <= m {
-                self.add_track(&mut out, &curve, dev1, dev2, &p, q.t, decay);
-                m = hq;
-            } else {
-                let crossing = monotone_root(
-                    |t| {
-                        let [v, d1, d2, _] = curve.derivatives(&curve.point(t));
-                        (v - m, d1, d2)
-                    },
-                    p.t,
-                    q.t,
-                    hp - m,
-                    hq - m,
-                );
-                self.add_ramp(&mut out, m, p.t, crossing);
-                self.add_track(&mut out, &curve, dev1, dev2, &curve.point(crossing), q.t, decay);
-                m = hq;
-            }
+            p = q;
         }
-        (out, m + self.ramp * h)
+        (walk.out, walk.m + self.ramp * h)
+    }
+
+    /// The zero of h' between p and q (h' is monotone there and changes sign).
+    fn slope_root(&self, curve: &Curve, p: &Point, q: &Point, sp: f64, sq: f64) -> f64 {
+        monotone_root(
+            |t| {
+                let [_, d1, d2, d3] = curve.derivatives(&curve.point(t));
+                (d1, d2, d3)
+            },
+            p.t,
+            q.t,
+            sp,
+            sq,
+        )
+    }
+
+    /// A sub-interval [p, q] on which h falls, or rises then falls from h(p) > M: the current
+    /// ramps while h stays above M, then tracks I_tf.
+    #[allow(clippy::too_many_arguments)]
+    fn falling(
+        &self,
+        walk: &mut RunningMinimum,
+        curve: &Curve,
+        dev1: f64,
+        dev2: f64,
+        p: &Point,
+        q: &Point,
+        decay: &Decay,
+    ) {
+        let (hp, hq) = (curve.h(p), curve.h(q));
+        let m = walk.m;
+        if hq >= m {
+            self.add_ramp(&mut walk.out, m, p.t, q.t);
+        } else if hp <= m {
+            self.add_track(&mut walk.out, curve, dev1, dev2, p, q.t, decay);
+            walk.m = hq;
+        } else {
+            let crossing = monotone_root(
+                |t| {
+                    let [v, d1, d2, _] = curve.derivatives(&curve.point(t));
+                    (v - m, d1, d2)
+                },
+                p.t,
+                q.t,
+                hp - m,
+                hq - m,
+            );
+            self.add_ramp(&mut walk.out, m, p.t, crossing);
+            self.add_track(&mut walk.out, curve, dev1, dev2, &curve.point(crossing), q.t, decay);
+            walk.m = hq;
+        }
     }
 
     /// Ramp segment [s0, s1]: I = I0 + r(τ − s0) with I0 = M + r·s0.
@@ -316,6 +371,12 @@ fn ramp_moment(x: f64, e: f64) -> f64 {
     } else {
         1.0 - (1.0 + x) * e
     }
+}
+
+/// The running minimum M of h over the step so far, and the integrals accumulated.
+struct RunningMinimum {
+    m: f64,
+    out: CurrentIntegrals,
 }
 
 /// A time τ in the step with both mode decays e^(−λi τ), evaluated once.
@@ -372,45 +433,15 @@ impl Curve {
         ]
     }
 
-    /// Points 0 = p0 < … < pk = len such that h is monotone between neighbours (k ≤ 4).
-    fn monotone_pieces(&self) -> ([Point; 5], usize) {
-        // h'' = λ1² A e^(−λ1 τ) + λ2² B e^(−λ2 τ) vanishes at most once, where A·B < 0;
-        // between 0, that point and len, h' is monotone and has at most one zero.
-        let mut inflection = None;
-        if self.amp_a * self.amp_b < 0.0 {
-            let ratio = -(self.l2 * self.l2 * self.amp_b) / (self.l1 * self.l1 * self.amp_a);
-            let t = ratio.ln() / (self.l2 - self.l1);
-            if t > 0.0 && t < self.len {
-                inflection = Some(self.point(t));
-            }
+    /// The zero of h'' = λ1² A e^(−λ1 τ) + λ2² B e^(−λ2 τ) inside the step, if any (it exists
+    /// only where A·B < 0, and is unique).
+    fn inflection(&self) -> Option<Point> {
+        if self.amp_a * self.amp_b >= 0.0 {
+            return None;
         }
-        let first = self.point(0.0);
-        let mut points = [first; 5];
-        let mut count = 1;
-        let mut p = first;
-        let mut slope_p = self.derivatives(&p)[1];
-        for q in inflection.into_iter().chain(std::iter::once(self.point(self.len))) {
-            let slope_q = self.derivatives(&q)[1];
-            if (slope_p < 0.0 && slope_q > 0.0) || (slope_p > 0.0 && slope_q < 0.0) {
-                let t = monotone_root(
-                    |t| {
-                        let [_, d1, d2, d3] = self.derivatives(&self.point(t));
-                        (d1, d2, d3)
-                    },
-                    p.t,
-                    q.t,
-                    slope_p,
-                    slope_q,
-                );
-                points[count] = self.point(t);
-                count += 1;
-            }
-            points[count] = q;
-            count += 1;
-            p = q;
-            slope_p = slope_q;
-        }
-        (points, count)
+        let ratio = -(self.l2 * self.l2 * self.amp_b) / (self.l1 * self.l1 * self.amp_a);
+        let t = ratio.ln() / (self.l2 - self.l1);
+        (t > 0.0 && t < self.len).then(|| self.point(t))
     }
 }
 
