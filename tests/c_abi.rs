@@ -259,6 +259,32 @@ fn instantiate_refuses_bad_arguments() {
 }
 
 #[test]
+fn an_infinite_stop_time_bounds_nothing_and_survives_serialisation() {
+    // Found by the fuzz test: stopTime = +inf was kept and made every saved state refuse
+    // to deserialise (saved states hold only finite numbers).
+    let mut f = Fmu::new("infinite-stop");
+    assert_eq!(unsafe { fmi2SetupExperiment(f.c, 0, 0.0, 40.0, 1, f64::INFINITY) }, OK);
+    assert_eq!(f.enter_init(), OK);
+    assert_eq!(f.exit_init(), OK);
+    f.time = 40.0;
+    assert_eq!(f.step(1e9), OK, "no finite stop time to pass");
+    unsafe {
+        let mut state: sys::fmi2FMUstate = null_mut();
+        assert_eq!(fmi2GetFMUstate(f.c, &mut state), OK);
+        let mut size = 0usize;
+        assert_eq!(fmi2SerializedFMUstateSize(f.c, state, &mut size), OK);
+        let mut bytes = vec![0u8; size];
+        assert_eq!(fmi2SerializeFMUstate(f.c, state, bytes.as_mut_ptr() as *mut sys::fmi2Byte, size), OK);
+        let mut back: sys::fmi2FMUstate = null_mut();
+        assert_eq!(fmi2DeSerializeFMUstate(f.c, bytes.as_ptr() as *const sys::fmi2Byte, size, &mut back), OK);
+        assert_eq!(fmi2SetFMUstate(f.c, back), OK);
+        assert_eq!(fmi2FreeFMUstate(f.c, &mut state), OK);
+        assert_eq!(fmi2FreeFMUstate(f.c, &mut back), OK);
+    }
+    assert_eq!(f.step(1.0), OK);
+}
+
+#[test]
 fn invalid_parameters_are_refused_at_initialisation_by_name() {
     for (var, value) in [
         (RealVariable::TauPole1, -1.0),

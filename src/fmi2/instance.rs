@@ -85,7 +85,9 @@ impl Instance {
             }
         }
         self.time = start_time;
-        self.stop_time = stop_time;
+        // stopTime = +inf bounds nothing: it is the same as no stopTime, and keeps every
+        // saved state finite.
+        self.stop_time = stop_time.filter(|stop| stop.is_finite());
         Ok(Status::Ok)
     }
 
