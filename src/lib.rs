@@ -7,5 +7,6 @@
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod fmi2;
+pub mod identify;
 pub mod model;
 pub mod model_description;
