@@ -154,10 +154,51 @@ impl Residuals for StepResiduals<'_> {
         if params.validate().is_err() {
             return false;
         }
+        // Segments are independent: simulate them on two threads (the machine's cores) when
+        // there is enough work, and concatenate in plan order.
+        let rows: usize = self.plan.iter().map(|(_, len, _)| len).sum();
+        let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).min(self.plan.len());
+        if workers < 2 || rows < PARALLEL_ROWS {
+            return self.residuals_of(&self.plan, &params, out);
+        }
+        // Split the plan where the simulated rows reach half.
+        let mut split = 0;
+        let mut acc = 0;
+        while split < self.plan.len() && 2 * acc < rows {
+            acc += self.plan[split].1;
+            split += 1;
+        }
+        let (head, tail) = self.plan.split_at(split);
+        let mut second = Vec::new();
+        let (ok_head, ok_tail) = std::thread::scope(|scope| {
+            let handle = scope.spawn(|| self.residuals_of(tail, &params, &mut second));
+            let ok = self.residuals_of(head, &params, out);
+            (ok, handle.join().unwrap_or(false))
+        });
+        out.extend_from_slice(&second);
+        ok_head && ok_tail
+    }
+}
+
+/// Below this many simulated rows one thread is faster than two.
+const PARALLEL_ROWS: usize = 20_000;
+
+/// Relative tolerance on the sum of squares and the parameters for the final dynamics fits:
+/// the objective is flat along τz/τp2, so converge tightly.
+const TOLERANCE: f64 = 1e-12;
+
+/// Tolerance of the first fit, which only has to find the outliers.
+const LOOSE_TOLERANCE: f64 = 1e-6;
+
+/// A rate limit [A/s] that never binds at the model's currents: the unlimited model.
+const UNLIMITED_RAMP: f64 = 1e9;
+
+impl StepResiduals<'_> {
+    fn residuals_of(&self, plan: &[(usize, usize, Vec<usize>)], params: &Parameters, out: &mut Vec<f64>) -> bool {
         let mut model = Vec::new();
-        for (seg_index, len, list) in &self.plan {
+        for (seg_index, len, list) in plan {
             let seg = &self.set.segments[*seg_index];
-            if !simulate_segment(&params, seg, *len, &mut model) {
+            if !simulate_segment(params, seg, *len, &mut model) {
                 return false;
             }
             if let Some(settle) = self.trajectory_settle {
@@ -255,6 +296,9 @@ pub struct DynamicsFit {
     pub used: (usize, usize),
     /// Negative and positive steps removed as outliers.
     pub outliers: (usize, usize),
+    /// Negative steps left out because the rate limit binds in their window (after a rise
+    /// that has not finished), where the unlimited transfer function does not apply.
+    pub on_ramp: usize,
     /// Indices (into the step set) of the negative steps used.
     pub negative_steps: Vec<usize>,
     /// Optimiser's stop reason for the negative-step fit and its evaluations.
@@ -277,10 +321,42 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
             negative.len()
         ));
     }
-    let start = initial_guess(set, &negative, base)?;
-    let (linear_fit, negative_used, negative_outliers) =
-        fit_with_outlier_removal(set, &negative, start, Free::Linear, options.outlier_sigmas)?;
-    let params = Free::Linear.apply(&start, &linear_fit.theta);
+    // Start values: the mean negative response, and the initial slopes of the positive steps.
+    let r0 = initial_ramp(set, &positive, &base);
+    let start = Parameters { ramp_up_limit: r0, ..initial_guess(set, &negative, base)? };
+    // Stage 1 on the negative steps whose window the rate limit does not touch: there the
+    // limited model equals the unlimited one, which is simulated with the limit lifted.
+    let on_ramp = ramp_rows(set, &start)?;
+    let mut clean: Vec<usize> = negative.iter().copied().filter(|&k| !touches_ramp(set, &on_ramp, k)).collect();
+    if clean.len() < 2 {
+        return Err(format!("{} negative step(s) clear of the rate limit; at least 2 are needed", clean.len()));
+    }
+    let unlimited = Parameters { ramp_up_limit: UNLIMITED_RAMP, ..start };
+    let (mut linear_fit, mut negative_used, negative_outliers) =
+        fit_with_outlier_removal(set, &clean, unlimited, Free::Linear, options.outlier_sigmas)?;
+    let mut params = Parameters { ramp_up_limit: r0, ..Free::Linear.apply(&unlimited, &linear_fit.theta) };
+    // Stage 2: the ramp limit on the positive steps (full model).
+    let mut ramp_stage = fit_ramp(set, &positive, params, options)?;
+    if let Some((fit, _, _)) = &ramp_stage {
+        params = Free::Ramp.apply(&params, &fit.theta);
+    }
+    // Check the stage-1 selection with the identified model; refit if a used step turns out
+    // to be touched by the limit.
+    let on_ramp = ramp_rows(set, &params)?;
+    let touched: Vec<usize> = negative_used.iter().copied().filter(|&k| touches_ramp(set, &on_ramp, k)).collect();
+    if !touched.is_empty() {
+        negative_used.retain(|k| !touched.contains(k));
+        clean.retain(|k| !touched.contains(k));
+        let problem = StepResiduals::steps(set, &negative_used, unlimited, Free::Linear);
+        linear_fit = lsq::minimize(&problem, &linear_fit.theta, 100, TOLERANCE).map_err(|e| format!("K, τz, τp1, τp2 refit: {e}"))?;
+        params = Parameters { ramp_up_limit: params.ramp_up_limit, ..Free::Linear.apply(&unlimited, &linear_fit.theta) };
+        ramp_stage = fit_ramp(set, &positive, params, options)?;
+        if let Some((fit, _, _)) = &ramp_stage {
+            params = Free::Ramp.apply(&params, &fit.theta);
+        }
+    }
+    let on_ramp_excluded = negative.len() - clean.len();
+    let parameters = params;
     let value = |i: usize| linear_fit.theta[i].exp();
     // θ = ln(x): σ_x = x·σ_θ to first order.
     let estimate = |i: usize| Estimate { value: value(i), standard_error: value(i) * linear_fit.standard_error(i) };
@@ -296,25 +372,14 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
     });
     let ratio = value(1) / value(3);
 
-    let mut residuals_by_step: Vec<(usize, Vec<f64>)> = step_residuals(set, &negative_used, params, Free::Linear, &linear_fit.theta);
-    let mut parameters = params;
-    let mut positive_used = Vec::new();
-    let mut positive_outliers = 0;
-    let ramp = if positive.is_empty() {
-        Err("no positive step during steady running".to_string())
-    } else {
-        let r0 = initial_ramp(set, &positive, &params);
-        let seed = Parameters { ramp_up_limit: r0, ..params };
-        match fit_with_outlier_removal(set, &positive, seed, Free::Ramp, options.outlier_sigmas) {
-            Ok((fit, used, removed)) => {
-                parameters = Free::Ramp.apply(&seed, &fit.theta);
-                positive_used = used;
-                positive_outliers = removed;
-                residuals_by_step.extend(step_residuals(set, &positive_used, seed, Free::Ramp, &fit.theta));
-                let r = fit.theta[0].exp();
-                Ok(Estimate { value: r, standard_error: r * fit.standard_error(0) })
-            }
-            Err(e) => Err(e),
+    // Residuals of the final model, step by step.
+    let mut residuals_by_step = step_residuals(set, &negative_used, parameters);
+    let (ramp, positive_used, positive_outliers) = match ramp_stage {
+        None => (Err("no positive step during steady running".to_string()), Vec::new(), 0),
+        Some((fit, used, removed)) => {
+            residuals_by_step.extend(step_residuals(set, &used, parameters));
+            let r = fit.theta[0].exp();
+            (Ok(Estimate { value: r, standard_error: r * fit.standard_error(0) }), used, removed)
         }
     };
 
@@ -338,7 +403,7 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
 
     let trajectory = options.trajectory.then(|| {
         let problem = StepResiduals::trajectory(set, parameters, options.settle);
-        lsq::minimize(&problem, &Free::All.theta(&parameters), 50).map(|fit| {
+        lsq::minimize(&problem, &Free::All.theta(&parameters), 50, TOLERANCE).map(|fit| {
             let p = Free::All.apply(&parameters, &fit.theta);
             let values = [p.gain, p.tau_zero, p.tau_pole1, p.tau_pole2, p.ramp_up_limit];
             let se: [f64; 5] = std::array::from_fn(|i| values[i] * fit.standard_error(i));
@@ -360,6 +425,7 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
         groups,
         used: (negative_used.len(), positive_used.len()),
         outliers: (negative_outliers, positive_outliers),
+        on_ramp: on_ramp_excluded,
         negative_steps: negative_used,
         termination: linear_fit.termination.clone(),
         evaluations: linear_fit.evaluations,
@@ -368,17 +434,51 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
     })
 }
 
-/// Residuals per step at θ.
-fn step_residuals(set: &StepSet, steps: &[usize], base: Parameters, free: Free, theta: &[f64]) -> Vec<(usize, Vec<f64>)> {
-    let problem = StepResiduals::steps(set, steps, base, free);
+/// Residuals of the final model, per step.
+fn step_residuals(set: &StepSet, steps: &[usize], params: Parameters) -> Vec<(usize, Vec<f64>)> {
+    let problem = StepResiduals::steps(set, steps, params, Free::Ramp);
     let mut r = Vec::new();
-    if !problem.residuals(theta, &mut r) {
+    if !problem.residuals(&Free::Ramp.theta(&params), &mut r) {
         return Vec::new();
     }
     problem.layout().into_iter().map(|(k, range)| (k, r[range].to_vec())).collect()
 }
 
-/// Fits, removes steps whose RMSE is an outlier, and fits again from the first optimum.
+/// The ramp limit from the positive steps with the other parameters fixed: the fit, the
+/// steps used and the outliers removed (`None` without positive steps).
+fn fit_ramp(set: &StepSet, positive: &[usize], params: Parameters, options: &DynamicsOptions) -> Result<Option<(Fit, Vec<usize>, usize)>, String> {
+    if positive.is_empty() {
+        return Ok(None);
+    }
+    fit_with_outlier_removal(set, positive, params, Free::Ramp, options.outlier_sigmas).map(Some)
+}
+
+/// Per segment, whether the rate limit binds in the interval ending at each row.
+fn ramp_rows(set: &StepSet, params: &Parameters) -> Result<Vec<Vec<bool>>, String> {
+    set.segments
+        .iter()
+        .map(|seg| {
+            let mut module = Module::new(*params, seg.setpoint[0]).map_err(|e| e.to_string())?;
+            let mut rows = vec![false];
+            for n in 1..seg.len() {
+                let report = module.step(seg.setpoint[n], seg.time[n] - seg.time[n - 1]).map_err(|e| e.to_string())?;
+                rows.push(report.ramp_time > 0.0);
+            }
+            Ok(rows)
+        })
+        .collect()
+}
+
+/// True if the rate limit binds anywhere in a negative step's pre-window or response, or in
+/// a positive step's pre-window.
+fn touches_ramp(set: &StepSet, on_ramp: &[Vec<bool>], k: usize) -> bool {
+    let step = &set.steps[k];
+    let end = if step.sign() == Sign::Negative { step.post.end } else { step.post.start };
+    on_ramp[step.segment][step.pre.start..end].iter().any(|&b| b)
+}
+
+/// Fits loosely, removes steps whose RMSE is an outlier, and fits tightly from the first
+/// optimum.
 /// Returns the fit, the steps kept and how many were removed.
 fn fit_with_outlier_removal(
     set: &StepSet,
@@ -392,18 +492,16 @@ fn fit_with_outlier_removal(
         _ => "K, τz, τp1, τp2 fit (negative steps)",
     };
     let problem = StepResiduals::steps(set, steps, start, free);
-    let first = lsq::minimize(&problem, &free.theta(&start), 100).map_err(|e| format!("{what}: {e}"))?;
+    let first = lsq::minimize(&problem, &free.theta(&start), 100, LOOSE_TOLERANCE).map_err(|e| format!("{what}: {e}"))?;
     let per_step: Vec<(usize, f64)> =
         problem.layout().into_iter().map(|(k, range)| (k, stats::rms(&first.residuals[range]))).collect();
     let rmses: Vec<f64> = per_step.iter().map(|(_, r)| *r).collect();
     let limit = stats::median(&rmses) + sigmas * stats::robust_sigma(&rmses);
     let kept: Vec<usize> = per_step.iter().filter(|(_, r)| *r <= limit).map(|(k, _)| *k).collect();
     let removed = steps.len() - kept.len();
-    if removed == 0 || kept.len() < 2 || rmses.len() < 5 {
-        return Ok((first, steps.to_vec(), 0));
-    }
+    let (kept, removed) = if removed == 0 || kept.len() < 2 || rmses.len() < 5 { (steps.to_vec(), 0) } else { (kept, removed) };
     let problem = StepResiduals::steps(set, &kept, start, free);
-    let second = lsq::minimize(&problem, &first.theta, 100).map_err(|e| format!("{what} without outliers: {e}"))?;
+    let second = lsq::minimize(&problem, &first.theta, 100, TOLERANCE).map_err(|e| format!("{what} without outliers: {e}"))?;
     Ok((second, kept, removed))
 }
 

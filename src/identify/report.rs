@@ -130,13 +130,14 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
                 "RMSE",
                 format!("{} A", sig(d.rmse_total, 4)),
                 format!(
-                    "negative {} A over {} steps, positive {} over {} steps; outliers removed {}/{}",
+                    "negative {} A over {} steps, positive {} over {} steps; outliers removed {}/{}; negative steps on a ramp left out {}",
                     sig(d.rmse_negative, 4),
                     d.used.0,
                     d.rmse_positive.map_or("-".into(), |r| format!("{} A", sig(r, 4))),
                     d.used.1,
                     d.outliers.0,
-                    d.outliers.1
+                    d.outliers.1,
+                    d.on_ramp
                 ),
             );
         }
@@ -261,6 +262,7 @@ pub fn statistics_json(fit: &ModuleFit) -> Value {
             "rmsePositiveA": d.rmse_positive.map_or(Value::Null, num),
             "stepsUsed": { "negative": d.used.0, "positive": d.used.1 },
             "outliersRemoved": { "negative": d.outliers.0, "positive": d.outliers.1 },
+            "negativeStepsOnRampLeftOut": d.on_ramp,
             "ratioTauZeroTauPole2": { "value": num(d.ratio_zero_pole2.value), "standardError": num(d.ratio_zero_pole2.standard_error) },
             "correlation": { "order": ["gain", "tauZero", "tauPole1", "tauPole2"],
                              "matrix": d.correlation.iter().map(|r| r.iter().map(|v| num(*v)).collect::<Vec<_>>()).collect::<Vec<_>>() },
