@@ -17,7 +17,10 @@
 
 use crate::model::{Module, Parameters};
 
+use nalgebra::DMatrix;
+
 use super::lsq::{self, Fit, Residuals};
+use super::modal;
 use super::segments::{Segment, Sign, StepSet};
 use super::stats;
 
@@ -99,20 +102,7 @@ pub struct StepResiduals<'a> {
 impl<'a> StepResiduals<'a> {
     /// Residuals of the steps `chosen` (indices into `set.steps`).
     pub fn steps(set: &'a StepSet, chosen: &[usize], base: Parameters, free: Free) -> Self {
-        let mut plan: Vec<(usize, usize, Vec<usize>)> = Vec::new();
-        let mut sorted = chosen.to_vec();
-        sorted.sort_by_key(|&k| (set.steps[k].segment, set.steps[k].before));
-        for k in sorted {
-            let step = &set.steps[k];
-            match plan.last_mut() {
-                Some((seg, len, list)) if *seg == step.segment => {
-                    *len = (*len).max(step.post.end);
-                    list.push(k);
-                }
-                _ => plan.push((step.segment, step.post.end, vec![k])),
-            }
-        }
-        StepResiduals { set, base, free, plan, trajectory_settle: None }
+        StepResiduals { set, base, free, plan: modal::plan(set, chosen), trajectory_settle: None }
     }
 
     /// Residuals I_meas − I_model of every running row at least `settle` seconds after its
@@ -148,6 +138,39 @@ impl Residuals for StepResiduals<'_> {
         self.free.count()
     }
 
+    /// Exact for K, τz, τp1, τp2 when the rate limit is lifted (stage 1): the model's
+    /// response is then the modal one of [`modal`], whose sensitivities with respect to
+    /// (ln K, ln τp1, ln τp2, w₁) are mapped to (ln K, ln τz, ln τp1, ln τp2) through
+    /// w₁ = a = (τz − τp1)/D, D = τp2 − τp1:
+    ///   ∂a/∂ln τz = τz/D,  ∂a/∂ln τp1 = τp1(τz − τp2)/D²,  ∂a/∂ln τp2 = −τp2(τz − τp1)/D².
+    fn exact_jacobian(&self, theta: &[f64]) -> Option<DMatrix<f64>> {
+        if self.free != Free::Linear || self.trajectory_settle.is_some() || self.base.ramp_up_limit < UNLIMITED_RAMP {
+            return None;
+        }
+        let p = self.free.apply(&self.base, theta);
+        p.validate().ok()?;
+        let (tz, t1, t2) = (p.tau_zero, p.tau_pole1, p.tau_pole2);
+        let d = t2 - t1;
+        let a = (tz - t1) / d;
+        let taus = [t1, t2];
+        let weights = [a, 1.0 - a];
+        let modal = modal::Modal { gain: p.gain, taus: &taus, weights: &weights, window: (p.min_setpoint, p.max_setpoint) };
+        let mut out = Vec::new();
+        let mut raw: Vec<Vec<f64>> = vec![Vec::new(); 4];
+        if !modal.residuals(self.set, &self.plan, &mut out, Some(&mut raw[..])) {
+            return None;
+        }
+        let (da_z, da_1, da_2) = (tz / d, t1 * (tz - t2) / (d * d), -t2 * (tz - t1) / (d * d));
+        let (k, t1s, t2s, dw) = (&raw[0], &raw[1], &raw[2], &raw[3]);
+        let columns = k
+            .iter()
+            .copied()
+            .chain(dw.iter().map(|x| x * da_z))
+            .chain(t1s.iter().zip(dw).map(|(s, x)| s + x * da_1))
+            .chain(t2s.iter().zip(dw).map(|(s, x)| s + x * da_2));
+        Some(DMatrix::from_iterator(out.len(), 4, columns))
+    }
+
     fn residuals(&self, theta: &[f64], out: &mut Vec<f64>) -> bool {
         out.clear();
         let params = self.free.apply(&self.base, theta);
@@ -161,14 +184,7 @@ impl Residuals for StepResiduals<'_> {
         if workers < 2 || rows < PARALLEL_ROWS {
             return self.residuals_of(&self.plan, &params, out);
         }
-        // Split the plan where the simulated rows reach half.
-        let mut split = 0;
-        let mut acc = 0;
-        while split < self.plan.len() && 2 * acc < rows {
-            acc += self.plan[split].1;
-            split += 1;
-        }
-        let (head, tail) = self.plan.split_at(split);
+        let (head, tail) = modal::halves(&self.plan);
         let mut second = Vec::new();
         let (ok_head, ok_tail) = std::thread::scope(|scope| {
             let handle = scope.spawn(|| self.residuals_of(tail, &params, &mut second));
@@ -191,7 +207,7 @@ const TOLERANCE: f64 = 1e-12;
 const LOOSE_TOLERANCE: f64 = 1e-6;
 
 /// A rate limit [A/s] that never binds at the model's currents: the unlimited model.
-const UNLIMITED_RAMP: f64 = 1e9;
+pub const UNLIMITED_RAMP: f64 = 1e9;
 
 impl StepResiduals<'_> {
     fn residuals_of(&self, plan: &[(usize, usize, Vec<usize>)], params: &Parameters, out: &mut Vec<f64>) -> bool {

@@ -20,6 +20,7 @@ pub mod dynamics;
 pub mod error;
 pub mod hydrogen;
 pub mod lsq;
+pub mod modal;
 pub mod params_io;
 pub mod polarisation;
 pub mod read;

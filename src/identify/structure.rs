@@ -15,6 +15,7 @@ use crate::model::Parameters;
 
 use super::dynamics::DynamicsFit;
 use super::lsq::{self, Residuals};
+use super::modal::{self, Plan};
 use super::segments::StepSet;
 use super::stats;
 
@@ -56,25 +57,12 @@ struct ModalResiduals<'a> {
     set: &'a StepSet,
     order: usize,
     window: (f64, f64),
-    plan: Vec<(usize, usize, Vec<usize>)>,
+    plan: Plan,
 }
 
 impl<'a> ModalResiduals<'a> {
     fn new(set: &'a StepSet, steps: &[usize], order: usize, window: (f64, f64)) -> Self {
-        let mut sorted = steps.to_vec();
-        sorted.sort_by_key(|&k| (set.steps[k].segment, set.steps[k].before));
-        let mut plan: Vec<(usize, usize, Vec<usize>)> = Vec::new();
-        for k in sorted {
-            let s = &set.steps[k];
-            match plan.last_mut() {
-                Some((seg, len, list)) if *seg == s.segment => {
-                    *len = (*len).max(s.post.end);
-                    list.push(k);
-                }
-                _ => plan.push((s.segment, s.post.end, vec![k])),
-            }
-        }
-        ModalResiduals { set, order, window, plan }
+        ModalResiduals { set, order, window, plan: modal::plan(set, steps) }
     }
 
     /// (K, τ, w) from θ.
@@ -87,124 +75,23 @@ impl<'a> ModalResiduals<'a> {
     }
 }
 
-impl ModalResiduals<'_> {
-    /// Residuals and, if `jac` is given, their derivatives (one vector per parameter) for
-    /// the segments of `plan`. Sensitivities follow the exact update: with d = e^(−h/τ),
-    ///   ∂zᵢ/∂τᵢ ← ∂zᵢ/∂τᵢ·d + (zᵢ − K·u)·d·h/τᵢ²,
-    /// ∂I/∂ln K = I, ∂I/∂ln τᵢ = wᵢ τᵢ ∂zᵢ/∂τᵢ, ∂I/∂wⱼ = zⱼ − zₙ; and ∂r = −(∂I − mean_W ∂I).
-    fn evaluate(&self, plan: &[(usize, usize, Vec<usize>)], theta: &[f64], out: &mut Vec<f64>, mut jac: Option<&mut [Vec<f64>]>) -> bool {
-        let (gain, taus, w) = self.unpack(theta);
-        if !(gain.is_finite() && taus.iter().all(|t| t.is_finite() && *t > 0.0) && w.iter().all(|x| x.is_finite())) {
-            return false;
-        }
-        let n = self.order;
-        let k = 2 * n;
-        let want = jac.is_some();
-        let (lo, hi) = self.window;
-        let longest = plan.iter().map(|(_, len, _)| *len).max().unwrap_or(0);
-        let mut model = Vec::with_capacity(longest);
-        let mut deriv: Vec<Vec<f64>> = (0..if want { k } else { 0 }).map(|_| Vec::with_capacity(longest)).collect();
-        let mut z = [0.0; 3];
-        let mut sens: [f64; 3];
-        let mut decay = [0.0; 3];
-        let mut growth = [0.0; 3];
-        for (seg_index, len, list) in plan {
-            let seg = &self.set.segments[*seg_index];
-            let y0 = gain * seg.setpoint[0].clamp(lo, hi);
-            z[..n].iter_mut().for_each(|zi| *zi = y0);
-            sens = [0.0; 3];
-            model.clear();
-            deriv.iter_mut().for_each(Vec::clear);
-            let mut last_h = f64::NAN;
-            for r in 0..*len {
-                if r > 0 {
-                    let h = seg.time[r] - seg.time[r - 1];
-                    if h != last_h {
-                        for i in 0..n {
-                            decay[i] = (-h / taus[i]).exp();
-                            growth[i] = decay[i] * h / (taus[i] * taus[i]);
-                        }
-                        last_h = h;
-                    }
-                    let y = gain * seg.setpoint[r].clamp(lo, hi);
-                    for i in 0..n {
-                        let dev = z[i] - y;
-                        sens[i] = sens[i] * decay[i] + dev * growth[i];
-                        z[i] = y + dev * decay[i];
-                    }
-                }
-                let mut current = 0.0;
-                for i in 0..n {
-                    current += w[i] * z[i];
-                }
-                model.push(current);
-                if want {
-                    deriv[0].push(current);
-                    for i in 0..n {
-                        deriv[1 + i].push(w[i] * taus[i] * sens[i]);
-                    }
-                    for j in 0..n - 1 {
-                        deriv[n + 1 + j].push(z[j] - z[n - 1]);
-                    }
-                }
-            }
-            for &s in list {
-                let step = &self.set.steps[s];
-                let model_pre = stats::mean(&model[step.pre.clone()]);
-                out.extend(step.post.clone().map(|i| (seg.current[i] - step.pre_mean) - (model[i] - model_pre)));
-                if let Some(jac) = jac.as_deref_mut() {
-                    for (column, d) in jac.iter_mut().zip(&deriv) {
-                        let pre = stats::mean(&d[step.pre.clone()]);
-                        column.extend(d[step.post.clone()].iter().map(|x| pre - x));
-                    }
-                }
-            }
-        }
-        true
-    }
-
-    /// [`ModalResiduals::evaluate`] over the whole plan, the segments split over two threads.
-    fn evaluate_all(&self, theta: &[f64], out: &mut Vec<f64>, jac: Option<&mut [Vec<f64>]>) -> bool {
-        out.clear();
-        let split = self.plan.len() / 2;
-        let k = 2 * self.order;
-        if split == 0 {
-            return self.evaluate(&self.plan, theta, out, jac);
-        }
-        let (head, tail) = self.plan.split_at(split);
-        let want = jac.is_some();
-        let mut tail_out = Vec::new();
-        let mut tail_jac: Vec<Vec<f64>> = vec![Vec::new(); k];
-        let (ok_head, ok_tail, head_jac) = std::thread::scope(|scope| {
-            let handle = scope.spawn(|| self.evaluate(tail, theta, &mut tail_out, want.then_some(&mut tail_jac[..])));
-            let mut head_jac: Vec<Vec<f64>> = vec![Vec::new(); k];
-            let ok = self.evaluate(head, theta, out, want.then_some(&mut head_jac[..]));
-            (ok, handle.join().unwrap_or(false), head_jac)
-        });
-        out.extend_from_slice(&tail_out);
-        if let Some(jac) = jac {
-            for ((column, h), t) in jac.iter_mut().zip(head_jac).zip(&tail_jac) {
-                *column = h;
-                column.extend_from_slice(t);
-            }
-        }
-        ok_head && ok_tail
-    }
-}
-
 impl Residuals for ModalResiduals<'_> {
     fn parameters(&self) -> usize {
         2 * self.order
     }
 
     fn residuals(&self, theta: &[f64], out: &mut Vec<f64>) -> bool {
-        self.evaluate_all(theta, out, None)
+        let (gain, taus, w) = self.unpack(theta);
+        let modal = modal::Modal { gain, taus: &taus, weights: &w, window: self.window };
+        modal.residuals(self.set, &self.plan, out, None)
     }
 
     fn exact_jacobian(&self, theta: &[f64]) -> Option<DMatrix<f64>> {
+        let (gain, taus, w) = self.unpack(theta);
+        let modal = modal::Modal { gain, taus: &taus, weights: &w, window: self.window };
         let mut out = Vec::new();
         let mut columns: Vec<Vec<f64>> = vec![Vec::new(); 2 * self.order];
-        if !self.evaluate_all(theta, &mut out, Some(&mut columns[..])) {
+        if !modal.residuals(self.set, &self.plan, &mut out, Some(&mut columns[..])) {
             return None;
         }
         Some(DMatrix::from_iterator(out.len(), 2 * self.order, columns.into_iter().flatten()))
@@ -235,8 +122,8 @@ pub fn check_structure(set: &StepSet, dynamics: &DynamicsFit, params: &Parameter
         time_constants: vec![p.tau_pole1.min(p.tau_pole2), p.tau_pole1.max(p.tau_pole2)],
     });
     let starts: [(usize, Vec<f64>); 2] = [
-        // One pole at the response's mean time constant a·τp1 + (1 − a)·τp2.
-        (1, vec![p.gain.ln(), (a * p.tau_pole1 + (1.0 - a) * p.tau_pole2).ln()]),
+        // The single pole whose step response is closest to the second order's.
+        (1, vec![p.gain.ln(), closest_first_order(p).ln()]),
         // The second order plus a small third mode between the two poles.
         (
             3,
@@ -269,4 +156,22 @@ pub fn check_structure(set: &StepSet, dynamics: &DynamicsFit, params: &Parameter
     }
     candidates.sort_by_key(|c| c.order);
     StructureCheck { candidates, residuals: n_residuals, failures }
+}
+
+/// τ [s] of the first-order step response 1 − e^(−t/τ) closest (least squares over
+/// t = 1…600 s) to the second order's 1 − a e^(−t/τp1) − (1 − a) e^(−t/τp2).
+fn closest_first_order(p: &Parameters) -> f64 {
+    let a = (p.tau_zero - p.tau_pole1) / (p.tau_pole2 - p.tau_pole1);
+    let target: Vec<f64> = (1..=600)
+        .map(|t| f64::from(t))
+        .map(|t| a * (-t / p.tau_pole1).exp() + (1.0 - a) * (-t / p.tau_pole2).exp())
+        .collect();
+    (0..80)
+        .map(|i| 0.5 * 1000f64.powf(f64::from(i) / 79.0))
+        .map(|tau| {
+            let err: f64 = target.iter().enumerate().map(|(t, g)| (g - (-(t as f64 + 1.0) / tau).exp()).powi(2)).sum();
+            (err, tau)
+        })
+        .min_by(|x, y| x.0.total_cmp(&y.0))
+        .map_or(p.tau_pole2, |(_, tau)| tau)
 }
