@@ -171,6 +171,14 @@ impl Residuals for StepResiduals<'_> {
         Some(DMatrix::from_iterator(out.len(), 4, columns))
     }
 
+    /// Each step's residuals share the noise of its pre-step mean: one cluster per step.
+    fn clusters(&self) -> Option<Vec<std::ops::Range<usize>>> {
+        if self.trajectory_settle.is_some() {
+            return None;
+        }
+        Some(self.layout().into_iter().map(|(_, range)| range).collect())
+    }
+
     fn residuals(&self, theta: &[f64], out: &mut Vec<f64>) -> bool {
         out.clear();
         let params = self.free.apply(&self.base, theta);

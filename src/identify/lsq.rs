@@ -2,10 +2,13 @@
 //! Levenberg–Marquardt) with a finite-difference Jacobian, and parameter uncertainties from
 //! the Jacobian at the optimum.
 //!
-//! Minimises S(θ) = Σ rᵢ(θ)². At the optimum, with J = ∂r/∂θ (exact or forward differences) and
-//! s² = S/(N − k), the covariance of θ is s²·(JᵀJ)⁻¹; standard errors are the square roots of
-//! its diagonal and correlations its normalised entries. This assumes independent residuals
-//! of equal variance.
+//! Minimises S(θ) = Σ rᵢ(θ)². At the optimum, with J = ∂r/∂θ (exact or forward differences),
+//! the covariance of θ is s²·(JᵀJ)⁻¹ (s² = S/(N − k)) for independent residuals, or the
+//! cluster-robust sandwich for residuals correlated within groups (see [`Residuals::clusters`]);
+//! standard errors are the square roots of its diagonal and correlations its normalised
+//! entries.
+
+use std::ops::Range;
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
@@ -18,6 +21,11 @@ pub trait Residuals: Sync {
     fn residuals(&self, theta: &[f64], out: &mut Vec<f64>) -> bool;
     /// The exact Jacobian ∂r/∂θ, where the problem provides one (`None`: finite differences).
     fn exact_jacobian(&self, _theta: &[f64]) -> Option<DMatrix<f64>> {
+        None
+    }
+    /// Groups of residuals whose errors may be correlated within but not across groups
+    /// (e.g. one step response, which shares its pre-step mean); `None`: independent.
+    fn clusters(&self) -> Option<Vec<Range<usize>>> {
         None
     }
 }
@@ -94,12 +102,34 @@ pub fn minimize<R: Residuals>(model: &R, theta0: &[f64], patience: usize, tolera
     if !rss.is_finite() {
         return Err(format!("non-finite residuals at the optimum ({termination})"));
     }
-    let covariance = jacobian(model, &theta, &residuals).and_then(|j| {
-        let dof = (residuals.len() - k) as f64;
-        let jtj = j.transpose() * &j;
-        jtj.try_inverse().map(|inv| inv * (rss / dof))
-    });
+    let covariance = jacobian(model, &theta, &residuals).and_then(|j| covariance(&j, &residuals, model.clusters()));
     Ok(Fit { theta, residuals, rss, covariance, evaluations: report.number_of_evaluations, termination })
+}
+
+/// Covariance of θ at the optimum from the Jacobian J and residuals r.
+///
+/// Independent residuals: s²(JᵀJ)⁻¹ with s² = Σr²/(N − k). With clusters c (G of them) whose
+/// errors may be correlated inside (a step's response shares the noise of its pre-step mean),
+/// the cluster-robust sandwich (JᵀJ)⁻¹ (Σ_c g_c g_cᵀ) (JᵀJ)⁻¹ · G/(G − 1), g_c = J_cᵀ r_c.
+fn covariance(j: &DMatrix<f64>, r: &[f64], clusters: Option<Vec<Range<usize>>>) -> Option<DMatrix<f64>> {
+    let k = j.ncols();
+    let bread = (j.transpose() * j).try_inverse()?;
+    match clusters {
+        Some(groups) if groups.len() > k => {
+            let mut meat = DMatrix::zeros(k, k);
+            for g in &groups {
+                let jc = j.rows(g.start, g.len());
+                let gc = jc.transpose() * DVector::from_column_slice(&r[g.clone()]);
+                meat += &gc * gc.transpose();
+            }
+            let n = groups.len() as f64;
+            Some(&bread * meat * &bread * (n / (n - 1.0)))
+        }
+        _ => {
+            let rss: f64 = r.iter().map(|x| x * x).sum();
+            Some(bread * (rss / (r.len() - k) as f64))
+        }
+    }
 }
 
 /// Jacobian ∂r/∂θ: the problem's exact one, or forward differences.
