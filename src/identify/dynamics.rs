@@ -618,3 +618,94 @@ fn initial_ramp(set: &StepSet, steps: &[usize], params: &Parameters) -> f64 {
         params.gain
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::identify::segments::{find_steps, Segment, StepOptions};
+    use crate::identify::synthetic::CampaignSpec;
+
+    /// A noise-free segment: the model itself driven through a schedule of levels
+    /// (row n's setpoint acts over (t[n−1], t[n]]).
+    fn segment(truth: &Parameters, levels: &[(usize, f64)]) -> Segment {
+        let mut module = Module::new(*truth, levels[0].1).unwrap();
+        let mut seg = Segment { source: "test".into(), time: vec![], setpoint: vec![], current: vec![] };
+        let mut t = 0.0;
+        for &(rows, u) in levels {
+            for _ in 0..rows {
+                if !seg.time.is_empty() {
+                    module.step(u, 1.0).unwrap();
+                    t += 1.0;
+                }
+                seg.time.push(t);
+                seg.setpoint.push(u);
+                seg.current.push(module.current());
+            }
+        }
+        seg
+    }
+
+    fn schedule() -> Vec<(usize, f64)> {
+        vec![(900, 80.0), (700, 65.0), (300, 95.0), (700, 70.0), (500, 60.0), (800, 100.0), (600, 75.0)]
+    }
+
+    #[test]
+    fn residuals_vanish_at_the_truth_with_the_timing_convention() {
+        let truth = CampaignSpec::test_truth();
+        let set = find_steps(vec![segment(&truth, &schedule())], &StepOptions::default());
+        assert_eq!(set.steps.len(), 6);
+        // Time zero of each step is the sample before the first row with the new setpoint.
+        assert_eq!(set.steps[0].before, 899);
+        assert_eq!(set.steps[0].post.start, 900);
+        let all: Vec<usize> = (0..set.steps.len()).collect();
+        let problem = StepResiduals::steps(&set, &all, truth, Free::All);
+        let mut r = Vec::new();
+        assert!(problem.residuals(&Free::All.theta(&truth), &mut r));
+        assert!(r.iter().all(|x| x.abs() < 1e-9), "max {}", r.iter().fold(0.0f64, |m, x| m.max(x.abs())));
+    }
+
+    #[test]
+    fn exact_jacobian_matches_differences_through_the_model() {
+        let truth = CampaignSpec::test_truth();
+        let set = find_steps(vec![segment(&truth, &schedule())], &StepOptions::default());
+        let negative: Vec<usize> = (0..set.steps.len()).filter(|&k| set.steps[k].sign() == Sign::Negative).collect();
+        let base = Parameters { ramp_up_limit: UNLIMITED_RAMP, gain: 0.5, tau_zero: 70.0, tau_pole1: 3.0, tau_pole2: 110.0, ..truth };
+        let problem = StepResiduals::steps(&set, &negative, base, Free::Linear);
+        let theta = Free::Linear.theta(&base);
+        let exact = problem.exact_jacobian(&theta).unwrap();
+        let mut plus = Vec::new();
+        let mut minus = Vec::new();
+        for j in 0..4 {
+            let h = 1e-6;
+            let mut t = theta.clone();
+            t[j] += h;
+            assert!(problem.residuals(&t, &mut plus));
+            t[j] -= 2.0 * h;
+            assert!(problem.residuals(&t, &mut minus));
+            let scale = exact.column(j).amax();
+            for i in 0..plus.len() {
+                let fd = (plus[i] - minus[i]) / (2.0 * h);
+                assert!((fd - exact[(i, j)]).abs() < 1e-6 * scale.max(1.0), "column {j} row {i}: {fd} vs {}", exact[(i, j)]);
+            }
+        }
+    }
+
+    #[test]
+    fn noise_free_steps_give_back_the_truth() {
+        let truth = CampaignSpec::test_truth();
+        let set = find_steps(vec![segment(&truth, &schedule())], &StepOptions::default());
+        let start = Parameters { gain: 0.45, tau_zero: 60.0, tau_pole1: 4.0, tau_pole2: 140.0, ramp_up_limit: 0.3, ..truth };
+        let fit = fit_dynamics(&set, start, &DynamicsOptions::default()).unwrap();
+        let p = fit.parameters;
+        for (got, want) in [
+            (p.gain, truth.gain),
+            (p.tau_zero, truth.tau_zero),
+            (p.tau_pole1, truth.tau_pole1),
+            (p.tau_pole2, truth.tau_pole2),
+            (p.ramp_up_limit, truth.ramp_up_limit),
+        ] {
+            assert!((got / want - 1.0).abs() < 1e-6, "{got} vs {want}");
+        }
+        assert!(fit.rmse_total < 1e-6);
+    }
+}
