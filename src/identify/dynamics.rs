@@ -372,7 +372,7 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
         negative_used.retain(|k| !touched.contains(k));
         clean.retain(|k| !touched.contains(k));
         let problem = StepResiduals::steps(set, &negative_used, unlimited, Free::Linear);
-        linear_fit = lsq::minimize(&problem, &linear_fit.theta, 100, TOLERANCE).map_err(|e| format!("K, τz, τp1, τp2 refit: {e}"))?;
+        linear_fit = lsq::minimize(&problem, &linear_fit.theta, 100, TOLERANCE, true).map_err(|e| format!("K, τz, τp1, τp2 refit: {e}"))?;
         params = Parameters { ramp_up_limit: params.ramp_up_limit, ..Free::Linear.apply(&unlimited, &linear_fit.theta) };
         ramp_stage = fit_ramp(set, &positive, params, options)?;
         if let Some((fit, _, _)) = &ramp_stage {
@@ -427,7 +427,7 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
 
     let trajectory = options.trajectory.then(|| {
         let problem = StepResiduals::trajectory(set, parameters, options.settle);
-        lsq::minimize(&problem, &Free::All.theta(&parameters), 50, TOLERANCE).map(|fit| {
+        lsq::minimize(&problem, &Free::All.theta(&parameters), 50, TOLERANCE, true).map(|fit| {
             let p = Free::All.apply(&parameters, &fit.theta);
             let values = [p.gain, p.tau_zero, p.tau_pole1, p.tau_pole2, p.ramp_up_limit];
             let se: [f64; 5] = std::array::from_fn(|i| values[i] * fit.standard_error(i));
@@ -516,7 +516,7 @@ fn fit_with_outlier_removal(
         _ => "K, τz, τp1, τp2 fit (negative steps)",
     };
     let problem = StepResiduals::steps(set, steps, start, free);
-    let first = lsq::minimize(&problem, &free.theta(&start), 100, LOOSE_TOLERANCE).map_err(|e| format!("{what}: {e}"))?;
+    let first = lsq::minimize(&problem, &free.theta(&start), 100, LOOSE_TOLERANCE, false).map_err(|e| format!("{what}: {e}"))?;
     let per_step: Vec<(usize, f64)> =
         problem.layout().into_iter().map(|(k, range)| (k, stats::rms(&first.residuals[range]))).collect();
     let rmses: Vec<f64> = per_step.iter().map(|(_, r)| *r).collect();
@@ -525,7 +525,7 @@ fn fit_with_outlier_removal(
     let removed = steps.len() - kept.len();
     let (kept, removed) = if removed == 0 || kept.len() < 2 || rmses.len() < 5 { (steps.to_vec(), 0) } else { (kept, removed) };
     let problem = StepResiduals::steps(set, &kept, start, free);
-    let second = lsq::minimize(&problem, &first.theta, 100, TOLERANCE).map_err(|e| format!("{what} without outliers: {e}"))?;
+    let second = lsq::minimize(&problem, &first.theta, 100, TOLERANCE, true).map_err(|e| format!("{what} without outliers: {e}"))?;
     Ok((second, kept, removed))
 }
 

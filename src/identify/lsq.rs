@@ -69,8 +69,9 @@ impl Fit {
 const FORWARD_STEP: f64 = 1e-7;
 
 /// Minimises Σ r(θ)² from `theta0`, with at most `patience`·(k + 1) residual evaluations and
-/// relative tolerance `tolerance` on Σ r² and θ (MINPACK's ftol and xtol).
-pub fn minimize<R: Residuals>(model: &R, theta0: &[f64], patience: usize, tolerance: f64) -> Result<Fit, String> {
+/// relative tolerance `tolerance` on Σ r² and θ (MINPACK's ftol and xtol); the covariance is
+/// computed when `with_covariance`.
+pub fn minimize<R: Residuals>(model: &R, theta0: &[f64], patience: usize, tolerance: f64, with_covariance: bool) -> Result<Fit, String> {
     let k = model.parameters();
     if theta0.len() != k {
         return Err(format!("{} start values for {k} parameters", theta0.len()));
@@ -102,7 +103,11 @@ pub fn minimize<R: Residuals>(model: &R, theta0: &[f64], patience: usize, tolera
     if !rss.is_finite() {
         return Err(format!("non-finite residuals at the optimum ({termination})"));
     }
-    let covariance = jacobian(model, &theta, &residuals).and_then(|j| covariance(&j, &residuals, model.clusters()));
+    let covariance = if with_covariance {
+        jacobian(model, &theta, &residuals).and_then(|j| covariance(&j, &residuals, model.clusters()))
+    } else {
+        None
+    };
     Ok(Fit { theta, residuals, rss, covariance, evaluations: report.number_of_evaluations, termination })
 }
 
@@ -214,7 +219,7 @@ mod tests {
     fn recovers_an_exponential_and_its_uncertainty() {
         let t: Vec<f64> = (0..50).map(f64::from).collect();
         let y = t.iter().enumerate().map(|(i, t)| 3.0 * (-t / 7.0).exp() + if i % 2 == 0 { 0.01 } else { -0.01 }).collect();
-        let fit = minimize(&Decay { t, y }, &[1.0, 2.0], 200, 1e-12).unwrap();
+        let fit = minimize(&Decay { t, y }, &[1.0, 2.0], 200, 1e-12, true).unwrap();
         assert!((fit.theta[0] - 3.0).abs() < 0.01, "{:?}", fit.theta);
         assert!((fit.theta[1] - 7.0).abs() < 0.05, "{:?}", fit.theta);
         assert!((fit.rmse() - 0.01).abs() < 0.002);

@@ -167,9 +167,11 @@ impl Modal<'_> {
                         }
                     }
                     let count = step.pre.len() as f64;
-                    for (c, column) in jac.iter_mut().enumerate() {
-                        let mean = pre[c] / count;
-                        column.extend(step.post.clone().map(|i| mean - deriv[i * k + c]));
+                    pre.iter_mut().for_each(|p| *p /= count);
+                    for row in deriv[step.post.start * k..step.post.end * k].chunks_exact(k) {
+                        for (c, column) in jac.iter_mut().enumerate() {
+                            column.push(pre[c] - row[c]);
+                        }
                     }
                 }
             }

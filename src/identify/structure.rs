@@ -137,20 +137,35 @@ pub fn check_structure(set: &StepSet, dynamics: &DynamicsFit, params: &Parameter
             ],
         ),
     ];
-    for (order, theta0) in starts {
-        let problem = ModalResiduals::new(set, steps, order, window);
-        match lsq::minimize(&problem, &theta0, 30, TOLERANCE) {
-            Ok(fit) => {
-                let (_, mut taus, _) = problem.unpack(&fit.theta);
-                taus.sort_by(f64::total_cmp);
-                candidates.push(Candidate {
-                    order,
-                    parameters: 2 * order,
-                    rmse: fit.rmse(),
-                    aicc: stats::aicc(fit.rss, fit.residuals.len(), 2 * order),
-                    time_constants: taus,
-                });
-            }
+    // The two candidates are independent: fit them side by side.
+    let results: Vec<(usize, Result<Candidate, String>)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = starts
+            .into_iter()
+            .map(|(order, theta0)| {
+                scope.spawn(move || {
+                    let problem = ModalResiduals::new(set, steps, order, window);
+                    let fit = lsq::minimize(&problem, &theta0, 30, TOLERANCE, false)?;
+                    let (_, mut taus, _) = problem.unpack(&fit.theta);
+                    taus.sort_by(f64::total_cmp);
+                    Ok(Candidate {
+                        order,
+                        parameters: 2 * order,
+                        rmse: fit.rmse(),
+                        aicc: stats::aicc(fit.rss, fit.residuals.len(), 2 * order),
+                        time_constants: taus,
+                    })
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .zip([1, 3])
+            .map(|(h, order)| (order, h.join().unwrap_or_else(|_| Err("the fit's thread failed".into()))))
+            .collect()
+    });
+    for (order, result) in results {
+        match result {
+            Ok(c) => candidates.push(c),
             Err(e) => failures.push((order, e)),
         }
     }
