@@ -94,7 +94,7 @@ pub struct StepResiduals<'a> {
     base: Parameters,
     free: Free,
     /// (segment, rows to simulate, steps in it) in segment order.
-    plan: Vec<(usize, usize, Vec<usize>)>,
+    plan: modal::Plan,
     /// Whole-record mode: rows from this time after the segment start are compared.
     trajectory_settle: Option<f64>,
 }
@@ -218,7 +218,7 @@ const LOOSE_TOLERANCE: f64 = 1e-6;
 pub const UNLIMITED_RAMP: f64 = 1e9;
 
 impl StepResiduals<'_> {
-    fn residuals_of(&self, plan: &[(usize, usize, Vec<usize>)], params: &Parameters, out: &mut Vec<f64>) -> bool {
+    fn residuals_of(&self, plan: &[modal::PlanEntry], params: &Parameters, out: &mut Vec<f64>) -> bool {
         let mut model = Vec::new();
         for (seg_index, len, list) in plan {
             let seg = &self.set.segments[*seg_index];
@@ -291,6 +291,9 @@ impl Default for DynamicsOptions {
     }
 }
 
+/// Whole-record cross-check: parameters, standard errors of (K, τz, τp1, τp2, r), RMSE [A].
+pub type TrajectoryFit = (Parameters, [f64; 5], f64);
+
 /// Result of the dynamics identification.
 #[derive(Clone, Debug)]
 pub struct DynamicsFit {
@@ -330,7 +333,7 @@ pub struct DynamicsFit {
     /// Residual evaluations of the negative-step fit.
     pub evaluations: usize,
     /// Whole-record cross-check (K, τz, τp1, τp2, r with standard errors and RMSE).
-    pub trajectory: Option<Result<(Parameters, [f64; 5], f64), String>>,
+    pub trajectory: Option<Result<TrajectoryFit, String>>,
     /// The identified parameters applied to the base set.
     pub parameters: Parameters,
 }

@@ -170,7 +170,13 @@ impl ModuleFit {
     /// True if `name`'s estimate is missing, not finite, or its relative standard error
     /// exceeds the threshold.
     pub fn is_poorly_determined(&self, name: &str) -> bool {
-        self.estimates.get(name).is_none_or(|e| !(e.relative_error() <= self.poorly_determined))
+        match self.estimates.get(name) {
+            None => true,
+            Some(e) => {
+                let relative = e.relative_error();
+                relative.is_nan() || relative > self.poorly_determined
+            }
+        }
     }
 }
 

@@ -17,8 +17,11 @@
 use super::segments::StepSet;
 use super::stats;
 
-/// Segments to simulate, in order: (segment, rows to simulate, steps in it).
-pub type Plan = Vec<(usize, usize, Vec<usize>)>;
+/// One segment to simulate: (segment, rows to simulate, steps in it).
+pub type PlanEntry = (usize, usize, Vec<usize>);
+
+/// Segments to simulate, in order.
+pub type Plan = Vec<PlanEntry>;
 
 /// The plan for `steps`: grouped by segment, in segment and time order.
 pub fn plan(set: &StepSet, steps: &[usize]) -> Plan {
@@ -39,7 +42,7 @@ pub fn plan(set: &StepSet, steps: &[usize]) -> Plan {
 }
 
 /// Splits a plan where the simulated rows reach half, for two threads.
-pub fn halves(plan: &[(usize, usize, Vec<usize>)]) -> (&[(usize, usize, Vec<usize>)], &[(usize, usize, Vec<usize>)]) {
+pub fn halves(plan: &[PlanEntry]) -> (&[PlanEntry], &[PlanEntry]) {
     let rows: usize = plan.iter().map(|(_, len, _)| len).sum();
     let mut split = 0;
     let mut acc = 0;
@@ -67,7 +70,7 @@ impl Modal<'_> {
     /// Appends the residuals of the plan's steps to `out` (cleared first) and, if `jac` holds
     /// 2n vectors, their derivatives with respect to (ln K, ln τ₁…ln τₙ, w₁…wₙ₋₁). Segments
     /// are split over two threads. False for a non-finite or non-positive parameter.
-    pub fn residuals(&self, set: &StepSet, plan: &[(usize, usize, Vec<usize>)], out: &mut Vec<f64>, jac: Option<&mut [Vec<f64>]>) -> bool {
+    pub fn residuals(&self, set: &StepSet, plan: &[PlanEntry], out: &mut Vec<f64>, jac: Option<&mut [Vec<f64>]>) -> bool {
         out.clear();
         let n = self.taus.len();
         if !(1..=3).contains(&n)
@@ -99,7 +102,7 @@ impl Modal<'_> {
         true
     }
 
-    fn pass(&self, set: &StepSet, plan: &[(usize, usize, Vec<usize>)], out: &mut Vec<f64>, mut jac: Option<&mut [Vec<f64>]>) {
+    fn pass(&self, set: &StepSet, plan: &[PlanEntry], out: &mut Vec<f64>, mut jac: Option<&mut [Vec<f64>]>) {
         let n = self.taus.len();
         let k = 2 * n;
         let want = jac.is_some();

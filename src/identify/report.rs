@@ -82,7 +82,7 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
         s.changes, s.segments, s.qualified, s.after_start, s.outside_window, s.too_small, s.short_level, s.short_response
     );
     let _ = writeln!(out);
-    let _ = writeln!(out, "  {:<20} {:<28} {:<22} {}", "Model", "Parameter", "Value", "Std. error");
+    let _ = writeln!(out, "  {:<20} {:<28} {:<22} Std. error", "Model", "Parameter", "Value");
     let _ = writeln!(out, "  {:-<20} {:-<28} {:-<22} {:-<14}", "", "", "", "");
     let mut row = |model: &str, name: &str, value: String, extra: String| {
         let _ = writeln!(out, "  {model:<20} {name:<28} {value:<22} {extra}");

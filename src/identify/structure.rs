@@ -178,7 +178,7 @@ pub fn check_structure(set: &StepSet, dynamics: &DynamicsFit, params: &Parameter
 fn closest_first_order(p: &Parameters) -> f64 {
     let a = (p.tau_zero - p.tau_pole1) / (p.tau_pole2 - p.tau_pole1);
     let target: Vec<f64> = (1..=600)
-        .map(|t| f64::from(t))
+        .map(f64::from)
         .map(|t| a * (-t / p.tau_pole1).exp() + (1.0 - a) * (-t / p.tau_pole2).exp())
         .collect();
     (0..80)
