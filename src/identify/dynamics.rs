@@ -211,6 +211,13 @@ const PARALLEL_ROWS: usize = 20_000;
 /// the objective is flat along τz/τp2, so converge tightly.
 const TOLERANCE: f64 = 1e-12;
 
+/// Fewest positive steps in which the rate limit must bind (for at least
+/// [`MIN_BINDING_SECONDS`]) for it to count as determined.
+pub const MIN_BINDING_STEPS: usize = 3;
+
+/// Shortest binding time [s] that makes a step inform the rate limit (a few samples at 1 Hz).
+pub const MIN_BINDING_SECONDS: f64 = 5.0;
+
 /// Tolerance of the first fit, which only has to find the outliers.
 const LOOSE_TOLERANCE: f64 = 1e-6;
 
@@ -323,6 +330,10 @@ pub struct DynamicsFit {
     pub used: (usize, usize),
     /// Negative and positive steps removed as outliers.
     pub outliers: (usize, usize),
+    /// Positive steps used in whose response the identified rate limit binds for at least
+    /// [`MIN_BINDING_SECONDS`]; below
+    /// [`MIN_BINDING_STEPS`] the limit is undetermined (infinite standard error).
+    pub ramp_binding: usize,
     /// Negative steps left out because the rate limit binds in their window (after a rise
     /// that has not finished), where the unlimited transfer function does not apply.
     pub on_ramp: usize,
@@ -363,8 +374,8 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
         fit_with_outlier_removal(set, &clean, unlimited, Free::Linear, options.outlier_sigmas)?;
     let mut params = Parameters { ramp_up_limit: r0, ..Free::Linear.apply(&unlimited, &linear_fit.theta) };
     // Stage 2: the ramp limit on the positive steps (full model).
-    let mut ramp_stage = fit_ramp(set, &positive, params, options)?;
-    if let Some((fit, _, _)) = &ramp_stage {
+    let mut ramp_stage = fit_ramp(set, &positive, params, options);
+    if let Ok(Some((fit, _, _))) = &ramp_stage {
         params = Free::Ramp.apply(&params, &fit.theta);
     }
     // Check the stage-1 selection with the identified model; refit if a used step turns out
@@ -377,8 +388,8 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
         let problem = StepResiduals::steps(set, &negative_used, unlimited, Free::Linear);
         linear_fit = lsq::minimize(&problem, &linear_fit.theta, 100, TOLERANCE, true).map_err(|e| format!("K, τz, τp1, τp2 refit: {e}"))?;
         params = Parameters { ramp_up_limit: params.ramp_up_limit, ..Free::Linear.apply(&unlimited, &linear_fit.theta) };
-        ramp_stage = fit_ramp(set, &positive, params, options)?;
-        if let Some((fit, _, _)) = &ramp_stage {
+        ramp_stage = fit_ramp(set, &positive, params, options);
+        if let Ok(Some((fit, _, _))) = &ramp_stage {
             params = Free::Ramp.apply(&params, &fit.theta);
         }
     }
@@ -400,13 +411,27 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
     let ratio = value(1) / value(3);
 
     // Residuals of the final model, step by step.
+    let mut ramp_binding = 0;
     let mut residuals_by_step = step_residuals(set, &negative_used, parameters);
     let (ramp, positive_used, positive_outliers) = match ramp_stage {
-        None => (Err("no positive step during steady running".to_string()), Vec::new(), 0),
-        Some((fit, used, removed)) => {
+        Err(e) => (Err(e), Vec::new(), 0),
+        Ok(None) => (Err("no positive step during steady running".to_string()), Vec::new(), 0),
+        Ok(Some((fit, used, removed))) => {
             residuals_by_step.extend(step_residuals(set, &used, parameters));
             let r = fit.theta[0].exp();
-            (Ok(Estimate { value: r, standard_error: r * fit.standard_error(0) }), used, removed)
+            // The limit is only seen where it binds for several samples: with too few such
+            // steps the data bound r from below at best, whatever the local curvature says.
+            let on_ramp = ramp_rows(set, &parameters)?;
+            let binding = used
+                .iter()
+                .filter(|&&k| {
+                    let step = &set.steps[k];
+                    on_ramp[step.segment][step.post.clone()].iter().sum::<f64>() >= MIN_BINDING_SECONDS
+                })
+                .count();
+            let standard_error = if binding >= MIN_BINDING_STEPS { r * fit.standard_error(0) } else { f64::INFINITY };
+            ramp_binding = binding;
+            (Ok(Estimate { value: r, standard_error }), used, removed)
         }
     };
 
@@ -453,6 +478,7 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
         used: (negative_used.len(), positive_used.len()),
         outliers: (negative_outliers, positive_outliers),
         on_ramp: on_ramp_excluded,
+        ramp_binding,
         negative_steps: negative_used,
         termination: linear_fit.termination.clone(),
         evaluations: linear_fit.evaluations,
@@ -480,16 +506,17 @@ fn fit_ramp(set: &StepSet, positive: &[usize], params: Parameters, options: &Dyn
     fit_with_outlier_removal(set, positive, params, Free::Ramp, options.outlier_sigmas).map(Some)
 }
 
-/// Per segment, whether the rate limit binds in the interval ending at each row.
-fn ramp_rows(set: &StepSet, params: &Parameters) -> Result<Vec<Vec<bool>>, String> {
+/// Per segment, the time [s] during which the rate limit binds in the interval ending at
+/// each row.
+fn ramp_rows(set: &StepSet, params: &Parameters) -> Result<Vec<Vec<f64>>, String> {
     set.segments
         .iter()
         .map(|seg| {
             let mut module = Module::new(*params, seg.setpoint[0]).map_err(|e| e.to_string())?;
-            let mut rows = vec![false];
+            let mut rows = vec![0.0];
             for n in 1..seg.len() {
                 let report = module.step(seg.setpoint[n], seg.time[n] - seg.time[n - 1]).map_err(|e| e.to_string())?;
-                rows.push(report.ramp_time > 0.0);
+                rows.push(report.ramp_time);
             }
             Ok(rows)
         })
@@ -498,10 +525,10 @@ fn ramp_rows(set: &StepSet, params: &Parameters) -> Result<Vec<Vec<bool>>, Strin
 
 /// True if the rate limit binds anywhere in a negative step's pre-window or response, or in
 /// a positive step's pre-window.
-fn touches_ramp(set: &StepSet, on_ramp: &[Vec<bool>], k: usize) -> bool {
+fn touches_ramp(set: &StepSet, on_ramp: &[Vec<f64>], k: usize) -> bool {
     let step = &set.steps[k];
     let end = if step.sign() == Sign::Negative { step.post.end } else { step.post.start };
-    on_ramp[step.segment][step.pre.start..end].iter().any(|&b| b)
+    on_ramp[step.segment][step.pre.start..end].iter().any(|&seconds| seconds > 0.0)
 }
 
 /// Fits loosely, removes steps whose RMSE is an outlier, and fits tightly from the first

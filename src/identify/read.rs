@@ -354,11 +354,7 @@ pub fn read_file(path: &Path, options: &ReadOptions) -> Result<Vec<ModuleLog>> {
 }
 
 fn builder<'a>(builders: &'a mut HashMap<String, Builder>, id: &str, path: &Path, present: &[bool; 6]) -> &'a mut Builder {
-    if !builders.contains_key(id) {
-        builders.insert(id.to_string(), Builder::new(path, present));
-    }
-    // Inserted just above when absent.
-    builders.get_mut(id).unwrap_or_else(|| unreachable!())
+    builders.entry(id.to_string()).or_insert_with(|| Builder::new(path, present))
 }
 
 /// Accumulates one module's rows of one file.

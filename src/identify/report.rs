@@ -121,7 +121,7 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
             match &d.ramp {
                 Ok(r) => {
                     let (v, e) = estimate_cells(r, "A/s");
-                    row("", "Positive ramp-rate limit", v, e + flag("rampUpLimit"));
+                    row("", "Positive ramp-rate limit", v, format!("{e}{}  binds in {} positive steps", flag("rampUpLimit"), d.ramp_binding));
                 }
                 Err(why) => row("", "Positive ramp-rate limit", "not identified".into(), why.clone()),
             }
@@ -263,6 +263,7 @@ pub fn statistics_json(fit: &ModuleFit) -> Value {
             "stepsUsed": { "negative": d.used.0, "positive": d.used.1 },
             "outliersRemoved": { "negative": d.outliers.0, "positive": d.outliers.1 },
             "negativeStepsOnRampLeftOut": d.on_ramp,
+            "positiveStepsWhereTheRampBinds": d.ramp_binding,
             "ratioTauZeroTauPole2": { "value": num(d.ratio_zero_pole2.value), "standardError": num(d.ratio_zero_pole2.standard_error) },
             "correlation": { "order": ["gain", "tauZero", "tauPole1", "tauPole2"],
                              "matrix": d.correlation.iter().map(|r| r.iter().map(|v| num(*v)).collect::<Vec<_>>()).collect::<Vec<_>>() },
