@@ -95,10 +95,11 @@ pub fn minimize<R: Residuals>(model: &R, theta0: &[f64], patience: usize, tolera
         return Err(format!("optimiser stopped: {termination}"));
     }
     let theta: Vec<f64> = problem.theta.iter().copied().collect();
-    let mut residuals = Vec::new();
-    if !model.residuals(&theta, &mut residuals) {
-        return Err(format!("optimiser stopped at an inadmissible point ({termination})"));
-    }
+    // The adapter holds the residuals at its current θ, the optimum.
+    let residuals: Vec<f64> = match problem.residuals {
+        Some(r) => r.iter().copied().collect(),
+        None => return Err(format!("optimiser stopped at an inadmissible point ({termination})")),
+    };
     let rss: f64 = residuals.iter().map(|r| r * r).sum();
     if !rss.is_finite() {
         return Err(format!("non-finite residuals at the optimum ({termination})"));

@@ -15,7 +15,6 @@
 //! fit its exact Jacobian. The structure check uses orders 1 and 3.
 
 use super::segments::StepSet;
-use super::stats;
 
 /// One segment to simulate: (segment, rows to simulate, steps in it).
 pub type PlanEntry = (usize, usize, Vec<usize>);
@@ -102,78 +101,95 @@ impl Modal<'_> {
         true
     }
 
-    fn pass(&self, set: &StepSet, plan: &[PlanEntry], out: &mut Vec<f64>, mut jac: Option<&mut [Vec<f64>]>) {
-        let n = self.taus.len();
-        let k = 2 * n;
-        let want = jac.is_some();
+    /// One thread's share, dispatched on the order so that the per-row loops unroll.
+    fn pass(&self, set: &StepSet, plan: &[PlanEntry], out: &mut Vec<f64>, jac: Option<&mut [Vec<f64>]>) {
+        match self.taus.len() {
+            1 => self.pass_n::<1>(set, plan, out, jac),
+            2 => self.pass_n::<2>(set, plan, out, jac),
+            _ => self.pass_n::<3>(set, plan, out, jac),
+        }
+    }
+
+    /// Simulates each segment once and streams the residuals (and derivative columns) of its
+    /// steps, whose pre-step windows and responses are each disjoint and ordered in time, so
+    /// no per-row buffer is kept.
+    fn pass_n<const N: usize>(&self, set: &StepSet, plan: &[PlanEntry], out: &mut Vec<f64>, mut jac: Option<&mut [Vec<f64>]>) {
         let (lo, hi) = self.window;
-        let (taus, w) = (self.taus, self.weights);
-        let longest = plan.iter().map(|(_, len, _)| *len).max().unwrap_or(0);
-        let mut model = Vec::with_capacity(longest);
-        // Derivatives of I, row-major with stride k (one store per row).
-        let mut deriv: Vec<f64> = Vec::with_capacity(if want { longest * k } else { 0 });
-        let mut row = [0.0; 6];
-        let mut z: [f64; 3];
-        let mut sens: [f64; 3];
-        let mut decay = [0.0; 3];
-        let mut growth = [0.0; 3];
+        let taus: [f64; N] = std::array::from_fn(|i| self.taus[i]);
+        let w: [f64; N] = std::array::from_fn(|i| self.weights[i]);
+        let want = jac.is_some();
+        let mut decay = [0.0; N];
+        let mut growth = [0.0; N];
         for (seg_index, len, list) in plan {
             let seg = &set.segments[*seg_index];
+            // Window bounds of the segment's steps, in time order.
+            let bounds: Vec<[usize; 4]> = list
+                .iter()
+                .map(|&k| {
+                    let s = &set.steps[k];
+                    [s.pre.start, s.pre.end, s.post.start, s.post.end]
+                })
+                .collect();
             let y0 = self.gain * seg.setpoint[0].clamp(lo, hi);
-            z = [y0; 3];
-            sens = [0.0; 3];
-            model.clear();
-            deriv.clear();
+            let mut z = [y0; N];
+            let mut sens = [0.0f64; N];
+            // Pre-window sums of I and of its 2N derivatives, per step.
+            let mut pre_sum = vec![[0.0f64; 7]; list.len()];
+            let (mut next_pre, mut next_post) = (0usize, 0usize);
             let mut last_h = f64::NAN;
+            let mut row = [0.0f64; 7];
             for r in 0..*len {
                 if r > 0 {
                     let h = seg.time[r] - seg.time[r - 1];
                     if h != last_h {
-                        for i in 0..n {
+                        for i in 0..N {
                             decay[i] = (-h / taus[i]).exp();
                             growth[i] = decay[i] * h / (taus[i] * taus[i]);
                         }
                         last_h = h;
                     }
                     let y = self.gain * seg.setpoint[r].clamp(lo, hi);
-                    for i in 0..n {
+                    for i in 0..N {
                         let dev = z[i] - y;
                         sens[i] = sens[i] * decay[i] + dev * growth[i];
                         z[i] = y + dev * decay[i];
                     }
                 }
                 let mut current = 0.0;
-                for i in 0..n {
+                for i in 0..N {
                     current += w[i] * z[i];
                 }
-                model.push(current);
+                // row: ∂I/∂ln K, ∂I/∂ln τᵢ, ∂I/∂wⱼ, then I itself.
+                row[6] = current;
                 if want {
                     row[0] = current;
-                    for i in 0..n {
+                    for i in 0..N {
                         row[1 + i] = w[i] * taus[i] * sens[i];
                     }
-                    for j in 0..n - 1 {
-                        row[n + 1 + j] = z[j] - z[n - 1];
+                    for j in 0..N - 1 {
+                        row[N + 1 + j] = z[j] - z[N - 1];
                     }
-                    deriv.extend_from_slice(&row[..k]);
                 }
-            }
-            for &s in list {
-                let step = &set.steps[s];
-                let model_pre = stats::mean(&model[step.pre.clone()]);
-                out.extend(step.post.clone().map(|i| (seg.current[i] - step.pre_mean) - (model[i] - model_pre)));
-                if let Some(jac) = jac.as_deref_mut() {
-                    let mut pre = [0.0; 6];
-                    for i in step.pre.clone() {
-                        for c in 0..k {
-                            pre[c] += deriv[i * k + c];
-                        }
+                while next_pre < bounds.len() && bounds[next_pre][1] <= r {
+                    next_pre += 1;
+                }
+                if next_pre < bounds.len() && bounds[next_pre][0] <= r {
+                    let sums = &mut pre_sum[next_pre];
+                    for c in 0..7 {
+                        sums[c] += row[c];
                     }
-                    let count = step.pre.len() as f64;
-                    pre.iter_mut().for_each(|p| *p /= count);
-                    for row in deriv[step.post.start * k..step.post.end * k].chunks_exact(k) {
+                }
+                while next_post < bounds.len() && bounds[next_post][3] <= r {
+                    next_post += 1;
+                }
+                if next_post < bounds.len() && bounds[next_post][2] <= r {
+                    let step = &set.steps[list[next_post]];
+                    let count = (bounds[next_post][1] - bounds[next_post][0]) as f64;
+                    let sums = &pre_sum[next_post];
+                    out.push((seg.current[r] - step.pre_mean) - (current - sums[6] / count));
+                    if let Some(jac) = jac.as_deref_mut() {
                         for (c, column) in jac.iter_mut().enumerate() {
-                            column.push(pre[c] - row[c]);
+                            column.push(sums[c] / count - row[c]);
                         }
                     }
                 }
