@@ -187,15 +187,16 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
             let best = s.best_order();
             let min_aicc = s.candidates.iter().map(|c| c.aicc).fold(f64::INFINITY, f64::min);
             let _ = writeln!(out, "  Structure check on the negative steps (N = {} residuals):", s.residuals);
-            let _ = writeln!(out, "    order  k  RMSE [A]   ΔAICc       poles [s]");
+            let _ = writeln!(out, "    order  k  RMSE [A]   AICc          ΔAICc       poles [s]");
             for c in &s.candidates {
                 let poles: Vec<String> = c.time_constants.iter().map(|t| sig(*t, 4)).collect();
                 let _ = writeln!(
                     out,
-                    "    {:<5}  {}  {:<9}  {:<10}  {}{}",
+                    "    {:<5}  {}  {:<9}  {:<12.1}  {:<10}  {}{}",
                     c.order,
                     c.parameters,
                     sig(c.rmse, 4),
+                    c.aicc,
                     sig(c.aicc - min_aicc, 4),
                     poles.join(", "),
                     if Some(c.order) == best { "   ← lowest AICc" } else { "" }
