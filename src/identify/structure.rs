@@ -1,5 +1,7 @@
 //! Structure check: first- and third-order candidates beside the paper's second order, fitted
-//! to the same negative-step residuals, compared by RMSE and AICc (see [`stats::aicc`]).
+//! to the same negative-step residuals, compared by RMSE and AICc (see [`stats::aicc`]). Those
+//! are the negative steps the dynamics fit used: clear of the rate limit, so the unlimited
+//! candidates and the limited model are compared on equal terms.
 //!
 //! Candidate of order n (relative degree one, n − 1 zeros, unit static gain), in modal form:
 //!   G_n(s) = K · Σᵢ wᵢ/(τᵢ s + 1),  Σ wᵢ = 1,
