@@ -1,4 +1,5 @@
-//! Reads `modelDescription.xml` (the single source of truth for the FMU's variables), checks
+//! Reads `modelDescription.xml` (the single source of truth for the FMU's variables; the
+//! environment variable AEM_MODEL_DESCRIPTION may name a copy with other start values), checks
 //! it, and generates `$OUT_DIR/model_description.rs`: the GUID, the model identifier, the
 //! capability flags, one enum variant per Real variable with its value reference, causality
 //! and start value, and the log categories. The FMI layer matches exhaustively on that enum,
@@ -12,7 +13,14 @@ const MODEL_IDENTIFIER: &str = "AemElectrolyser";
 
 fn main() {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR"));
-    let xml_path = manifest.join("modelDescription.xml");
+    // AEM_MODEL_DESCRIPTION: another model description to build from (packaging/package.py
+    // --parameters builds the FMU binary from a copy whose start values are identified ones,
+    // so that the binary's defaults and the shipped model description agree).
+    println!("cargo:rerun-if-env-changed=AEM_MODEL_DESCRIPTION");
+    let xml_path = match std::env::var_os("AEM_MODEL_DESCRIPTION") {
+        Some(path) if !path.is_empty() => PathBuf::from(path),
+        _ => manifest.join("modelDescription.xml"),
+    };
     println!("cargo:rerun-if-changed={}", xml_path.display());
     println!("cargo:rerun-if-changed=build.rs");
     let text = std::fs::read_to_string(&xml_path)

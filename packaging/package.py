@@ -2,6 +2,14 @@
 """Build the release library and zip it with the model description into an FMU.
 
     python3 packaging/package.py [--out target/fmu/AemElectrolyser.fmu] [--no-build]
+    python3 packaging/package.py --parameters params.json [--module ID] --out my.fmu
+
+With --parameters (a file written by `aem-identify fit -o`), the FMU's parameter start values
+are the identified ones: the copy of modelDescription.xml that goes into the zip gets them
+(and a GUID derived from them), and the binary is built from that copy (build.rs reads the
+AEM_MODEL_DESCRIPTION environment variable), so the model description and the binary's
+defaults agree. The repository's modelDescription.xml is never changed. Unknown parameter
+names, wrong units and non-finite values are refused before anything is built.
 
 Layout of the FMU (FMI 2.0, section 2.3):
     modelDescription.xml
@@ -11,7 +19,12 @@ The archive is deterministic: fixed timestamps and sorted entries, so the same s
 the same bytes. Standard library only.
 """
 import argparse
+import json
+import math
 import os
+import re
+import uuid
+import xml.etree.ElementTree as ET
 import platform
 import subprocess
 import sys
@@ -37,8 +50,84 @@ def platform_dir():
     sys.exit(f"package.py: unsupported platform {system}")
 
 
-def build_release():
-    subprocess.run(["cargo", "build", "--release", "--lib", "--locked"], cwd=ROOT, check=True)
+def build_release(model_description=None):
+    """Release build of the library from the repository's model description, or `model_description`."""
+    env = dict(os.environ)
+    env.pop("AEM_MODEL_DESCRIPTION", None)
+    if model_description is not None:
+        env["AEM_MODEL_DESCRIPTION"] = str(model_description)
+    subprocess.run(["cargo", "build", "--release", "--lib", "--locked"], cwd=ROOT, check=True, env=env)
+
+
+class ParameterFileError(Exception):
+    """A parameter file that cannot be applied; the message says why."""
+
+
+def read_parameters(path: Path, module=None):
+    """{name: value} of one module of an `aem-identify` parameter file."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as e:
+        raise ParameterFileError(f"{path}: cannot read: {e}") from e
+    except json.JSONDecodeError as e:
+        raise ParameterFileError(f"{path}:{e.lineno}: not JSON: {e.msg}") from e
+    modules = data.get("modules") if isinstance(data, dict) else None
+    if not isinstance(modules, list) or not modules:
+        raise ParameterFileError(f"{path}: no \"modules\" list (write it with aem-identify fit -o)")
+    ids = [m.get("module") for m in modules if isinstance(m, dict)]
+    if module is None:
+        if len(modules) != 1:
+            raise ParameterFileError(f"{path}: {len(modules)} modules; choose one with --module ({', '.join(map(str, ids))})")
+        entry = modules[0]
+    else:
+        matches = [m for m in modules if isinstance(m, dict) and m.get("module") == module]
+        if not matches:
+            raise ParameterFileError(f"{path}: no module {module!r} (modules: {', '.join(map(str, ids))})")
+        entry = matches[0]
+    parameters = entry.get("parameters") if isinstance(entry, dict) else None
+    if not isinstance(parameters, dict):
+        raise ParameterFileError(f"{path}: module entry without a \"parameters\" object")
+    return parameters
+
+
+def apply_parameters(xml_text: str, parameters: dict, origin: str):
+    """The model description with the parameters' start values and a GUID derived from them.
+
+    Every name must be a parameter of the model description with the same unit, and every
+    value a finite number not below the variable's min; anything else is refused."""
+    root = ET.fromstring(xml_text)
+    declared = {}
+    for sv in root.iter("ScalarVariable"):
+        real = sv.find("Real")
+        if sv.get("causality") == "parameter" and real is not None:
+            declared[sv.get("name")] = (real.get("unit"), real.get("min"))
+    values = {}
+    for name, entry in parameters.items():
+        if name not in declared:
+            raise ParameterFileError(f"{origin}: unknown parameter {name!r} (the FMU's parameters: {', '.join(declared)})")
+        unit, minimum = declared[name]
+        if not isinstance(entry, dict) or "value" not in entry or "unit" not in entry:
+            raise ParameterFileError(f"{origin}: parameter {name!r} needs \"value\" and \"unit\"")
+        if entry["unit"] != unit:
+            raise ParameterFileError(f"{origin}: parameter {name!r} has unit {entry['unit']!r}, the FMU's is {unit!r}")
+        value = entry["value"]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ParameterFileError(f"{origin}: parameter {name!r} = {value!r} is not a finite number")
+        if minimum is not None and value < float(minimum):
+            raise ParameterFileError(f"{origin}: parameter {name!r} = {value!r} is below its min {minimum}")
+        values[name] = float(value)
+    text = xml_text
+    for name, value in values.items():
+        # Edit the start attribute inside this variable's element only, keeping the file as written.
+        pattern = re.compile(r'(<ScalarVariable\s+name="' + re.escape(name) + r'"[^>]*>.*?<Real\b[^>]*?\bstart=")([^"]*)(")', re.S)
+        text, count = pattern.subn(lambda m: m.group(1) + repr(value) + m.group(3), text, count=1)
+        if count != 1:
+            raise ParameterFileError(f"{origin}: no start attribute for {name!r} in modelDescription.xml")
+    old_guid = root.get("guid")
+    fingerprint = old_guid + json.dumps(values, sort_keys=True)
+    new_guid = "{" + str(uuid.uuid5(uuid.NAMESPACE_URL, fingerprint)) + "}"
+    text = text.replace(f'guid="{old_guid}"', f'guid="{new_guid}"', 1)
+    return text, values, new_guid
 
 
 def entries(model_description: bytes):
@@ -48,8 +137,13 @@ def entries(model_description: bytes):
     library = target_dir / "release" / built
     if not library.is_file():
         sys.exit(f"package.py: {library} not found; build it first (cargo build --release --lib)")
+    guid = ET.fromstring(model_description).get("guid")
+    binary = library.read_bytes()
+    if guid.encode() not in binary:
+        sys.exit(f"package.py: {library} was not built from this model description (GUID {guid} not in it); "
+                 "run without --no-build")
     yield "modelDescription.xml", model_description
-    yield f"binaries/{plat}/{shipped}", library.read_bytes()
+    yield f"binaries/{plat}/{shipped}", binary
     docs = ROOT / "documentation"
     for path in sorted(docs.rglob("*")):
         if path.is_file():
@@ -72,10 +166,30 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, default=ROOT / "target" / "fmu" / f"{MODEL_IDENTIFIER}.fmu")
     parser.add_argument("--no-build", action="store_true", help="use the library already in target/release")
+    parser.add_argument("--parameters", type=Path, help="parameter file of aem-identify: its values become the start values")
+    parser.add_argument("--module", help="module of the parameter file (when it holds several)")
     args = parser.parse_args(argv)
-    if not args.no_build:
-        build_release()
-    model_description = (ROOT / "modelDescription.xml").read_bytes()
+    xml_path = ROOT / "modelDescription.xml"
+    if args.parameters is None:
+        if args.module is not None:
+            parser.error("--module needs --parameters")
+        if not args.no_build:
+            build_release()
+        model_description = xml_path.read_bytes()
+    else:
+        try:
+            parameters = read_parameters(args.parameters, args.module)
+            text, values, guid = apply_parameters(xml_path.read_text(encoding="utf-8"), parameters, str(args.parameters))
+        except ParameterFileError as e:
+            sys.exit(f"package.py: {e}")
+        # The edited copy lives beside the output, never over the repository's file.
+        edited = args.out.with_name(args.out.stem + ".modelDescription.xml")
+        edited.parent.mkdir(parents=True, exist_ok=True)
+        edited.write_text(text, encoding="utf-8")
+        if not args.no_build:
+            build_release(edited.resolve())
+        model_description = text.encode("utf-8")
+        print(f"start values from {args.parameters}: " + ", ".join(f"{k}={v!r}" for k, v in values.items()) + f"; GUID {guid}")
     write_fmu(args.out, list(entries(model_description)))
     print(f"wrote {args.out.relative_to(ROOT) if args.out.is_relative_to(ROOT) else args.out}")
 

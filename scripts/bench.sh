@@ -9,3 +9,5 @@ echo "== Rust (cargo bench --bench model_step) on $(grep -m1 'model name' /proc/
 cargo bench --locked --bench model_step -- --json target/bench/rust.json
 echo "== fmpy and Python/SciPy"
 .venv/bin/python bench/fmpy_bench.py --rust target/bench/rust.json
+echo "== aem-identify against its Python/SciPy peer"
+bash bench/identify_bench.sh

@@ -9,5 +9,6 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod fmi2;
+pub mod identify;
 pub mod model;
 pub mod model_description;

@@ -18,7 +18,7 @@ use aem_electrolyser::model::Parameters;
 use aem_electrolyser::model_description::{Causality, RealVariable, GUID};
 use fmi_sys::fmi2 as sys;
 use proptest::prelude::*;
-use proptest::test_runner::{Config, TestRunner};
+use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 
 const OK: sys::fmi2Status = sys::fmi2Status_fmi2OK;
 const WARNING: sys::fmi2Status = sys::fmi2Status_fmi2Warning;
@@ -457,7 +457,18 @@ impl Drop for Harness {
 #[test]
 fn random_call_sequences_never_crash_and_never_accept_invalid_requests() {
     let cases: u32 = std::env::var("FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(100_000);
-    let mut runner = TestRunner::new(Config { cases, failure_persistence: None, ..Config::default() });
+    // A fixed seed by default, so that CI is reproducible; FUZZ_SEED=<u64> picks another and
+    // FUZZ_SEED=random a fresh one (printed, to replay a failure).
+    let seed: u64 = match std::env::var("FUZZ_SEED").ok().as_deref() {
+        Some("random") => std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(1, |d| d.as_nanos() as u64),
+        Some(text) => text.parse().expect("FUZZ_SEED: a u64 or `random`"),
+        None => 0x00AE_E1EC_7201_15E2,
+    };
+    eprintln!("fuzz: seed {seed}");
+    let mut key = [0u8; 32];
+    key[..8].copy_from_slice(&seed.to_le_bytes());
+    let rng = TestRng::from_seed(RngAlgorithm::ChaCha, &key);
+    let mut runner = TestRunner::new_with_rng(Config { cases, failure_persistence: None, ..Config::default() }, rng);
     let started = std::time::Instant::now();
     let result = runner.run(&prop::collection::vec(op(), 1..40), |ops| {
         let mut h = Harness::new();

@@ -1,0 +1,325 @@
+//! Identification of the model's parameters from a user's operational data (the paper's §III),
+//! sharing the model code with the FMU: every simulated response comes from
+//! [`crate::model::Module`].
+//!
+//! Pipeline per module ([`fit_module`]):
+//! 1. [`read`]: CSV files into gap-free blocks, bad rows skipped and counted;
+//! 2. [`segments`]: running segments, setpoint steps during steady running;
+//! 3. [`polarisation`]: V = V0 + R·I at nominal temperature and pressure;
+//! 4. [`dynamics`]: K, τz, τp1, τp2 from the negative steps, then the ramp limit r from the
+//!    positive steps, outliers removed, uncertainties from the Jacobian;
+//! 5. [`structure`]: first- and third-order candidates beside the second order (RMSE, AICc);
+//! 6. [`hydrogen`]: flow = c·I and the Faraday efficiency for the cell count.
+//!
+//! [`params_io`] writes the FMU's parameter names and units with the statistics, [`report`]
+//! the Table-I-like text, [`validate`] compares a held-out day with the identified model, and
+//! [`synthetic`] generates campaigns with known parameters.
+
+pub mod columns;
+pub mod dynamics;
+pub mod error;
+pub mod hydrogen;
+pub mod lsq;
+pub mod modal;
+pub mod params_io;
+pub mod polarisation;
+pub mod read;
+pub mod report;
+pub mod segments;
+pub mod stats;
+pub mod structure;
+pub mod synthetic;
+pub mod validate;
+
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+use crate::model::Parameters;
+
+pub use error::{Error, Result};
+
+use dynamics::{DynamicsFit, DynamicsOptions, Estimate};
+use hydrogen::HydrogenFit;
+use params_io::{ParameterEntry, ParameterFile, Source, Spread};
+use polarisation::{PolarisationFit, PolarisationOptions};
+use read::{BadRowCounts, ModuleLog};
+use segments::StepOptions;
+use structure::StructureCheck;
+
+/// Settings of the whole identification.
+#[derive(Clone, Debug)]
+pub struct FitOptions {
+    /// Segmentation and step selection.
+    pub steps: StepOptions,
+    /// Nominal-condition filter of the polarisation fit.
+    pub polarisation: PolarisationOptions,
+    /// Dynamics fit.
+    pub dynamics: DynamicsOptions,
+    /// Cells in the stack, for the Faraday efficiency.
+    pub cells: u32,
+    /// A parameter whose relative standard error exceeds this is flagged [-].
+    pub poorly_determined: f64,
+    /// Parameters not identified from data (nominalCurrent, the setpoint window) and the
+    /// fallback for any step that cannot run.
+    pub base: Parameters,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        FitOptions {
+            steps: StepOptions::default(),
+            polarisation: PolarisationOptions::default(),
+            dynamics: DynamicsOptions::default(),
+            cells: 23,
+            poorly_determined: 0.05,
+            base: Parameters::default(),
+        }
+    }
+}
+
+/// A pipeline step's result, or why it did not run.
+#[derive(Clone, Debug)]
+pub enum Stage<T> {
+    /// The step ran.
+    Done(T),
+    /// It did not: a missing column, too little data, or a failed fit.
+    Skipped(String),
+}
+
+impl<T> Stage<T> {
+    /// The result, if the step ran.
+    pub fn done(&self) -> Option<&T> {
+        match self {
+            Stage::Done(t) => Some(t),
+            Stage::Skipped(_) => None,
+        }
+    }
+}
+
+impl<T> From<std::result::Result<T, String>> for Stage<T> {
+    fn from(r: std::result::Result<T, String>) -> Self {
+        match r {
+            Ok(t) => Stage::Done(t),
+            Err(e) => Stage::Skipped(e),
+        }
+    }
+}
+
+/// What was read for a module.
+#[derive(Clone, Debug)]
+pub struct LogSummary {
+    /// Module id.
+    pub id: String,
+    /// Files.
+    pub files: usize,
+    /// Data rows read.
+    pub rows_read: u64,
+    /// Rows used.
+    pub rows_used: u64,
+    /// Skipped rows and gaps.
+    pub bad: BadRowCounts,
+}
+
+/// Step counts of a module's data.
+#[derive(Clone, Debug, Default)]
+pub struct StepSummary {
+    /// Running segments.
+    pub segments: usize,
+    /// Setpoint changes while running.
+    pub changes: usize,
+    /// Steps qualifying for the fit.
+    pub qualified: usize,
+    /// Left out: within the settle time after a start-up or gap.
+    pub after_start: usize,
+    /// Left out: from or to outside the operating window (shut-downs).
+    pub outside_window: usize,
+    /// Left out: too small.
+    pub too_small: usize,
+    /// Left out: preceding level shorter than the pre-step window.
+    pub short_level: usize,
+    /// Left out: response shorter than the minimum.
+    pub short_response: usize,
+}
+
+/// Everything identified for one module.
+#[derive(Clone, Debug)]
+pub struct ModuleFit {
+    /// What was read.
+    pub log: LogSummary,
+    /// Steps found.
+    pub steps: StepSummary,
+    /// Polarisation curve.
+    pub polarisation: Stage<PolarisationFit>,
+    /// Current dynamics.
+    pub dynamics: Stage<DynamicsFit>,
+    /// Structure check.
+    pub structure: Stage<StructureCheck>,
+    /// Hydrogen coefficient.
+    pub hydrogen: Stage<HydrogenFit>,
+    /// The resulting parameter set (identified values over the base set).
+    pub parameters: Parameters,
+    /// Which parameters were identified, with their estimates.
+    pub estimates: BTreeMap<&'static str, Estimate>,
+    /// Wall time per stage.
+    pub timings: Vec<(&'static str, Duration)>,
+    /// Relative-error threshold used for the flags.
+    pub poorly_determined: f64,
+}
+
+impl ModuleFit {
+    /// True if `name`'s estimate is missing, not finite, or its relative standard error
+    /// exceeds the threshold.
+    pub fn is_poorly_determined(&self, name: &str) -> bool {
+        match self.estimates.get(name) {
+            None => true,
+            Some(e) => {
+                let relative = e.relative_error();
+                relative.is_nan() || relative > self.poorly_determined
+            }
+        }
+    }
+}
+
+/// Runs the whole identification for one module.
+pub fn fit_module(log: &ModuleLog, options: &FitOptions) -> ModuleFit {
+    let mut timings = Vec::new();
+    let mut clock = Instant::now();
+    let mut lap = |name: &'static str, timings: &mut Vec<(&'static str, Duration)>| {
+        let now = Instant::now();
+        timings.push((name, now - clock));
+        clock = now;
+    };
+    let base = options.base;
+    let mut step_options = options.steps.clone();
+    step_options.setpoint_window = (base.min_setpoint, base.max_setpoint);
+    let segments = segments::running_segments(log, &step_options);
+    let set = segments::find_steps(segments, &step_options);
+    let steps = StepSummary {
+        segments: set.segments.len(),
+        changes: set.changes,
+        qualified: set.steps.len(),
+        after_start: set.after_start,
+        outside_window: set.outside_window,
+        too_small: set.too_small,
+        short_level: set.short_level,
+        short_response: set.short_response,
+    };
+    lap("segments and steps", &mut timings);
+
+    let polarisation: Stage<PolarisationFit> = polarisation::fit_polarisation(log, &options.polarisation).into();
+    lap("polarisation", &mut timings);
+
+    let has_setpoint = log.has(columns::Channel::Setpoint);
+    let dynamics: Stage<DynamicsFit> = if has_setpoint {
+        dynamics::fit_dynamics(&set, base, &options.dynamics).into()
+    } else {
+        Stage::Skipped("no setpoint column".into())
+    };
+    lap("current dynamics", &mut timings);
+
+    let structure = match &dynamics {
+        Stage::Done(d) => Stage::Done(structure::check_structure(&set, d, &base)),
+        Stage::Skipped(_) => Stage::Skipped("needs the dynamics fit".into()),
+    };
+    lap("structure check", &mut timings);
+
+    let hydrogen: Stage<HydrogenFit> =
+        hydrogen::fit_hydrogen(log, options.polarisation.running_current, options.cells).into();
+    lap("hydrogen", &mut timings);
+
+    let mut parameters = base;
+    let mut estimates = BTreeMap::new();
+    if let Stage::Done(p) = &polarisation {
+        parameters.voltage_intercept = p.voltage_intercept.value;
+        parameters.ohmic_resistance = p.ohmic_resistance.value;
+        estimates.insert("voltageIntercept", p.voltage_intercept);
+        estimates.insert("ohmicResistance", p.ohmic_resistance);
+    }
+    if let Stage::Done(d) = &dynamics {
+        parameters.gain = d.gain.value;
+        parameters.tau_zero = d.tau_zero.value;
+        parameters.tau_pole1 = d.tau_pole1.value;
+        parameters.tau_pole2 = d.tau_pole2.value;
+        estimates.insert("gain", d.gain);
+        estimates.insert("tauZero", d.tau_zero);
+        estimates.insert("tauPole1", d.tau_pole1);
+        estimates.insert("tauPole2", d.tau_pole2);
+        if let Ok(r) = &d.ramp {
+            parameters.ramp_up_limit = r.value;
+            estimates.insert("rampUpLimit", *r);
+        }
+    }
+    if let Stage::Done(h) = &hydrogen {
+        parameters.h2_coefficient = h.coefficient.value;
+        estimates.insert("h2Coefficient", h.coefficient);
+    }
+    ModuleFit {
+        log: LogSummary {
+            id: log.id.clone(),
+            files: log.files.len(),
+            rows_read: log.rows_read,
+            rows_used: log.rows_used,
+            bad: log.bad.clone(),
+        },
+        steps,
+        polarisation,
+        dynamics,
+        structure,
+        hydrogen,
+        parameters,
+        estimates,
+        timings,
+        poorly_determined: options.poorly_determined,
+    }
+}
+
+/// Spread of each identified parameter over the modules that identified it.
+pub fn spread(fits: &[ModuleFit]) -> BTreeMap<String, Spread> {
+    let mut out = BTreeMap::new();
+    for (name, unit) in params_io::fmu_parameters() {
+        let values: Vec<f64> = fits.iter().filter_map(|f| f.estimates.get(name).map(|e| e.value)).collect();
+        if values.len() < 2 {
+            continue;
+        }
+        let mean = stats::mean(&values);
+        let std = stats::sample_std(&values);
+        out.insert(
+            name.to_string(),
+            Spread {
+                unit: unit.to_string(),
+                mean,
+                std,
+                min: values.iter().copied().fold(f64::INFINITY, f64::min),
+                max: values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                cv_percent: 100.0 * std / mean.abs(),
+            },
+        );
+    }
+    out
+}
+
+/// The parameter file for these fits.
+pub fn parameter_file(fits: &[ModuleFit]) -> ParameterFile {
+    let modules = fits
+        .iter()
+        .map(|fit| {
+            let parameters = params_io::fmu_parameters()
+                .into_iter()
+                .map(|(name, unit)| {
+                    let estimate = fit.estimates.get(name);
+                    let entry = ParameterEntry {
+                        value: params_io::get(&fit.parameters, name).unwrap_or(f64::NAN),
+                        unit: unit.to_string(),
+                        standard_error: estimate.map(|e| e.standard_error).filter(|s| s.is_finite()),
+                        poorly_determined: estimate.map(|_| fit.is_poorly_determined(name)),
+                        source: if estimate.is_some() { Source::Identified } else { Source::Default },
+                    };
+                    (name.to_string(), entry)
+                })
+                .collect();
+            params_io::ModuleEntry { module: fit.log.id.clone(), parameters, statistics: report::statistics_json(fit) }
+        })
+        .collect();
+    let spread = (fits.len() > 1).then(|| spread(fits));
+    ParameterFile { generator: format!("aem-identify {}", env!("CARGO_PKG_VERSION")), modules, spread }
+}
