@@ -123,9 +123,20 @@ impl Instance {
                 plant.hub_power()
             ),
         );
+        let slope_dropped = !plant.takes_setpoint_slope() && self.setpoint_slope != 0.0;
         self.plant = Some((config, plant));
         self.state = FmiState::StepComplete;
-        Ok(self.update_excursion())
+        let status = self.update_excursion();
+        if slope_dropped {
+            // Set while the settings still described a single module.
+            self.logger.warning(&format!(
+                "d(setpoint)/dt = {} %/s set before initialisation is dropped: a hub holds its inputs over a step",
+                shown(self.setpoint_slope)
+            ));
+            self.setpoint_slope = 0.0;
+            return Ok(Status::Warning);
+        }
+        Ok(status)
     }
 
     /// fmi2Terminate.

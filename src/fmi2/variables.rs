@@ -23,6 +23,12 @@ impl Default for Inputs {
 
 /// The Real parameter field behind `var`, or None if `var` is not a parameter.
 pub fn real_parameter_mut<'a>(params: &'a mut Parameters, settings: &'a mut PlantSettings, var: RealVariable) -> Option<&'a mut f64> {
+    module_parameter_mut(params, var).or_else(|| setting_mut(settings, var))
+}
+
+/// The field of a module's [`Parameters`] behind `var` (Table I and the operating window),
+/// or None if `var` is not one of them.
+pub fn module_parameter_mut(params: &mut Parameters, var: RealVariable) -> Option<&mut f64> {
     use RealVariable::*;
     match var {
         Gain => Some(&mut params.gain),
@@ -36,6 +42,16 @@ pub fn real_parameter_mut<'a>(params: &'a mut Parameters, settings: &'a mut Plan
         NominalCurrent => Some(&mut params.nominal_current),
         MinSetpoint => Some(&mut params.min_setpoint),
         MaxSetpoint => Some(&mut params.max_setpoint),
+        Hysteresis | ColdStartTime | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration
+        | ParameterSpread | Setpoint | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced
+        | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts => None,
+    }
+}
+
+/// The Real hub setting behind `var`, or None if `var` is not one.
+fn setting_mut(settings: &mut PlantSettings, var: RealVariable) -> Option<&mut f64> {
+    use RealVariable::*;
+    match var {
         Hysteresis => Some(&mut settings.hysteresis),
         ColdStartTime => Some(&mut settings.cold_start_time),
         WarmStartTime => Some(&mut settings.warm_start_time),
@@ -44,8 +60,9 @@ pub fn real_parameter_mut<'a>(params: &'a mut Parameters, settings: &'a mut Plan
         StandbyDuration => Some(&mut settings.standby_duration),
         StopDuration => Some(&mut settings.stop_duration),
         ParameterSpread => Some(&mut settings.parameter_spread),
-        Setpoint | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower | HubH2Flow
-        | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts => None,
+        Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance | H2Coefficient
+        | NominalCurrent | MinSetpoint | MaxSetpoint | Setpoint | PowerReference | Current | Voltage | Power | H2Flow
+        | Energy | H2Produced | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts => None,
     }
 }
 
