@@ -2,13 +2,17 @@
 //!
 //! The hub's demand is expressed per module ("module units": % of one module's setpoint in
 //! setpoint mode, W of one module's stack power in power mode). With a total demand D (sum
-//! over modules), module limits [m, M] and a hysteresis band b in the same units:
+//! over modules), module limits [m, M] and a hysteresis band b per module in the same units
+//! (the hub's band is N·b: the same fraction of the hub as b is of one module):
 //! - `Equal` (the paper): all N modules run at the share D/N, or none; they stop when
 //!   D/N < m − b and start again when D/N ≥ m.
 //! - `Sequential`: as few modules as possible, n = ⌈D/M⌉ (0 if D < m); the count only falls
-//!   once the demand is b below the next threshold: n stays between ⌈D/M⌉ and ⌈(D+b)/M⌉.
-//!   Each runs at D/n. Between M and 2m (e.g. 100…120 % of a module) no split keeps every
-//!   module in [m, M]: the running modules are clamped to m (the hub over-produces there).
+//!   once the demand is N·b below the next threshold, and never so far that a running module
+//!   would drop below m: n stays between ⌈D/M⌉ and min(⌈(D+N·b)/M⌉, ⌊D/m⌋). (A band of one
+//!   module's b would let a large hub follow every ripple of a wind-driven reference with
+//!   starts and stops.) Each runs at D/n. Between M and 2m (e.g. 100…120 % of a module) no
+//!   split keeps every module in [m, M]: the running modules are clamped to m (the hub
+//!   over-produces there).
 //! - `Rotation`: the count of `Sequential`; which modules run is chosen by running hours
 //!   and starts (see [`crate::model::hub`]).
 
@@ -99,7 +103,8 @@ pub fn running_count(policy: DispatchPolicy, modules: u32, total: f64, limits: L
                 }
             };
             let need = count(total);
-            let keep = count(total + limits.band).max(need);
+            let no_lower_than_min = (total / limits.min).floor().min(n) as u32;
+            let keep = count(total + limits.band * n).min(no_lower_than_min).max(need);
             previous.clamp(need, keep)
         }
     }
@@ -148,10 +153,13 @@ mod tests {
         use DispatchPolicy::Sequential as S;
         assert_eq!(running_count(S, 10, 250.0, L, 0, false), 3);
         assert_eq!(running_count(S, 10, 50.0, L, 0, false), 0);
-        assert_eq!(running_count(S, 10, 57.0, L, 1, false), 1); // within the band: keep
-        assert_eq!(running_count(S, 10, 54.0, L, 1, false), 0);
-        assert_eq!(running_count(S, 10, 197.0, L, 3, false), 3); // 197 + 5 > 200: keep 3
-        assert_eq!(running_count(S, 10, 194.0, L, 3, false), 2);
+        // The hub's band: 10 modules × 5 = 50 module-%.
+        assert_eq!(running_count(S, 10, 57.0, L, 1, false), 0, "one module would run below its minimum");
+        assert_eq!(running_count(S, 10, 160.0, L, 3, false), 2, "three would run at 53 %");
+        assert_eq!(running_count(S, 10, 185.0, L, 3, false), 3); // 185 + 50 > 200: keep 3
+        assert_eq!(running_count(S, 10, 149.0, L, 3, false), 2); // 149 + 50 < 200
+        assert_eq!(running_count(S, 10, 149.0, L, 1, false), 2); // rising: ⌈149/100⌉
+        assert_eq!(running_count(S, 1, 57.0, L, 1, false), 0);
         assert_eq!(running_count(S, 10, 5000.0, L, 3, false), 10);
     }
 

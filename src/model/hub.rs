@@ -228,21 +228,61 @@ impl Hub {
         let n = self.target_count(demand);
         self.rebalance(n);
         self.running_target = n;
+        // The demand is shared by the dispatched modules that carry current; starting modules
+        // take their share when their start completes. That instant is known in advance, so
+        // the step is cut there and the shares recomputed: still exact, still independent of
+        // the communication step size.
+        let mut totals = self.totals;
+        let mut left = h;
+        while left > 0.0 {
+            let piece = self.next_start_completion().filter(|t| *t < left).unwrap_or(left);
+            self.advance_groups(demand, n, piece, &mut totals);
+            left -= piece;
+        }
+        totals.time += h;
+        self.totals = totals;
+        if self.types.len() == 1 && self.groups.len() > 1 {
+            self.merge();
+        }
+        Ok(())
+    }
+
+    /// Time until the first dispatched module that is not yet carrying current completes its
+    /// start [s] (a module stopping first waits out its blowdown, then starts cold).
+    fn next_start_completion(&self) -> Option<f64> {
+        let op = &self.config.operation;
+        self.groups
+            .iter()
+            .filter(|g| g.active)
+            .filter_map(|g| match g.unit.state {
+                OperatingState::Curve => Some(g.unit.timer),
+                OperatingState::Idle => Some(op.cold_start_time),
+                OperatingState::Standby => Some(op.warm_start_time),
+                OperatingState::Blowdown => Some(g.unit.timer + op.cold_start_time),
+                OperatingState::Steady => None,
+            })
+            .reduce(f64::min)
+    }
+
+    /// Advances every group by `piece` seconds, the demand shared by the dispatched modules
+    /// that carry current now (by all `n` dispatched while none does).
+    fn advance_groups(&mut self, demand: Demand, n: u32, piece: f64, totals: &mut HubTotals) {
+        let carrying: u32 = self.groups.iter().filter(|g| g.active && g.unit.state == OperatingState::Steady).map(|g| g.count).sum();
+        let sharing = if carrying > 0 { carrying } else { n.max(1) };
         let rotation = self.config.policy == DispatchPolicy::Rotation;
         let op = self.config.operation;
-        let shared_u = if self.types.len() == 1 { self.module_setpoint(0, demand, n.max(1)) } else { 0.0 };
-        let mut totals = self.totals;
+        let shared_u = if self.types.len() == 1 { self.module_setpoint(0, demand, sharing) } else { 0.0 };
         for gi in 0..self.groups.len() {
             let g = self.groups[gi];
             let kind = g.kind as usize;
             let command = if g.active {
-                Command::Run(if self.types.len() == 1 { shared_u } else { self.module_setpoint(kind, demand, n.max(1)) })
+                Command::Run(if self.types.len() == 1 { shared_u } else { self.module_setpoint(kind, demand, sharing) })
             } else {
                 Command::Stop
             };
             let ty = &mut self.types[kind];
             let mut unit = g.unit;
-            let t = unit.advance(&ty.params, &ty.dynamics, &mut ty.factors, &op, command, h);
+            let t = unit.advance(&ty.params, &ty.dynamics, &mut ty.factors, &op, command, piece);
             let c = g.count as f64;
             totals.energy += c * t.energy;
             totals.h2_produced += c * (ty.h2_per_coulomb * t.charge);
@@ -255,12 +295,6 @@ impl Hub {
                 group.starts += t.starts as u64;
             }
         }
-        totals.time += h;
-        self.totals = totals;
-        if self.types.len() == 1 && self.groups.len() > 1 {
-            self.merge();
-        }
-        Ok(())
     }
 
     /// Switches modules on or off until `target` modules are dispatched to run, preferring

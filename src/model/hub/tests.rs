@@ -197,3 +197,23 @@ fn bad_combinations_are_refused_with_the_value() {
     assert!(hub.step(Demand::Setpoint(70.0), 1e308).is_err());
     assert_eq!(*hub.totals(), before);
 }
+
+#[test]
+fn running_modules_carry_the_demand_while_others_start() {
+    let p = Parameters::default();
+    let module_max = power_at_setpoint(&p, 100.0);
+    let mut cfg = config(10, DispatchPolicy::Sequential, BelowMinimum::Standby);
+    cfg.operation.cold_start_time = 10_000.0;
+    let mut hub = Hub::new(p, cfg, Demand::Power(2.5 * module_max)).unwrap();
+    assert_eq!(hub.count_in(OperatingState::Steady), 3);
+    // Five modules' worth: two more start (10 000 s), the three running go to their maximum.
+    run(&mut hub, Demand::Power(4.6 * module_max), 3000.0, 1.0);
+    assert_eq!((hub.count_in(OperatingState::Steady), hub.count_in(OperatingState::Curve)), (3, 2));
+    let expected = 3.0 * module_max + 2.0 * cfg.operation.start_power;
+    assert!((hub.power() - expected).abs() <= 1e-6 * expected, "{} vs {expected}", hub.power());
+    // Once the starts complete (exactly at 10 000 s), all five share the demand.
+    run(&mut hub, Demand::Power(4.6 * module_max), 7000.0, 7.0);
+    assert_eq!(hub.count_in(OperatingState::Steady), 5);
+    run(&mut hub, Demand::Power(4.6 * module_max), 3000.0, 10.0);
+    assert!((hub.power() - 4.6 * module_max).abs() <= 1e-6 * module_max);
+}
