@@ -104,6 +104,15 @@ def turbulent_speeds(duration, dt=1.0, site=Site(), n_turbines=N_TURBINES, seed=
     return speeds
 
 
+def rotor_effective(speeds, dt, mean_speed, rotor_diameter):
+    """First-order low-pass, τ = D/(2V), of each row of speeds [m/s] (circular, via FFT)."""
+    speeds = np.atleast_2d(speeds)
+    n = speeds.shape[-1]
+    f = np.fft.rfftfreq(n, dt)
+    tau = rotor_diameter / (2.0 * mean_speed)
+    return np.fft.irfft(np.fft.rfft(speeds, axis=-1) / (1.0 + 2j * np.pi * f * tau), n, axis=-1)
+
+
 def power_curve(speed, turbine=Turbine()):
     """Electric power [W] of one turbine at hub-height wind speed [m/s]."""
     v = np.asarray(speed, dtype=float)
@@ -113,9 +122,13 @@ def power_curve(speed, turbine=Turbine()):
     return np.where((v >= turbine.cut_in) & (v < turbine.cut_out), p, 0.0)
 
 
-def farm_power(duration, dt=1.0, site=Site(), turbine=Turbine(), n_turbines=N_TURBINES, seed=1):
-    """(time [s], farm power [W], turbine wind speeds [m/s]) for a seeded record."""
+def farm_power(duration, dt=1.0, site=Site(), turbine=Turbine(), n_turbines=N_TURBINES, seed=1,
+               rotor_filter=True):
+    """(time [s], farm power [W], turbine wind speeds [m/s]) for a seeded record; the speeds
+    are the rotor-effective ones that drive the power curve."""
     speeds = turbulent_speeds(duration, dt, site, n_turbines, seed)
+    if rotor_filter:
+        speeds = rotor_effective(speeds, dt, site.mean_speed, turbine.rotor_diameter)
     t = np.arange(speeds.shape[1]) * dt
     return t, power_curve(speeds, turbine).sum(axis=0), speeds
 

@@ -91,3 +91,16 @@ def test_extreme_operating_gust_shape():
     v_gust = 3.3 * site.sigma / (1 + 0.1 * tb.rotor_diameter / 42.0)
     assert g.max() == pytest.approx(0.74 * v_gust, rel=1e-3)
     assert t[np.argmax(g)] == pytest.approx(15.25, abs=0.05)
+
+
+def test_rotor_filter_keeps_the_mean_and_removes_fast_turbulence(long_record):
+    site, tb = wf.Site(), wf.Turbine()
+    rotor = wf.rotor_effective(long_record, 1.0, site.mean_speed, tb.rotor_diameter)
+    assert rotor.mean(axis=1) == pytest.approx(long_record.mean(axis=1), abs=1e-9)
+    # |H|² = 1/(1 + (2πfτ)²) with τ = D/(2V): a tenth of the power at 0.06 Hz is left
+    f, p_point = signal.welch(long_record[0], fs=1.0, nperseg=1024)
+    _, p_rotor = signal.welch(rotor[0], fs=1.0, nperseg=1024)
+    tau = tb.rotor_diameter / (2 * site.mean_speed)
+    band = (f > 0.05) & (f < 0.07)
+    expected = 1 / (1 + (2 * np.pi * f[band] * tau) ** 2)
+    assert (p_rotor[band] / p_point[band]).mean() == pytest.approx(expected.mean(), rel=0.05)
