@@ -33,12 +33,41 @@ fn main() {
     std::fs::write(&out, generated).unwrap_or_else(|e| panic!("cannot write {}: {e}", out.display()));
 }
 
+/// The FMI types implemented, with the Rust type of their values.
+#[derive(Clone, Copy, PartialEq)]
+enum Type {
+    Real,
+    Integer,
+    Boolean,
+}
+
+impl Type {
+    fn element(self) -> &'static str {
+        match self {
+            Type::Real => "Real",
+            Type::Integer => "Integer",
+            Type::Boolean => "Boolean",
+        }
+    }
+    fn rust(self) -> &'static str {
+        match self {
+            Type::Real => "f64",
+            Type::Integer => "i32",
+            Type::Boolean => "bool",
+        }
+    }
+}
+
 struct Variable {
     name: String,
     vr: u32,
+    ty: Type,
     causality: String,
+    /// The unit: the Real's unit attribute; Integer and Boolean variables (which FMI 2.0 gives
+    /// no unit attribute) state theirs in the description as "[unit]".
     unit: String,
-    start: Option<f64>,
+    /// Start value as Rust source (`Some(..)`), or None.
+    start: Option<String>,
 }
 
 fn generate(text: &str) -> Result<String, String> {
@@ -75,19 +104,47 @@ fn generate(text: &str) -> Result<String, String> {
             .attribute("valueReference")
             .and_then(|v| v.parse().ok())
             .ok_or(format!("{name}: valueReference missing or not an unsigned integer"))?;
-        let real = sv
-            .children()
-            .find(|n| n.is_element())
-            .filter(|n| n.has_tag_name("Real"))
-            .ok_or(format!("{name}: only Real variables are implemented"))?;
-        let unit = real.attribute("unit").ok_or(format!("{name}: every variable must declare a unit"))?;
-        if !units.contains(unit) {
-            return Err(format!("{name}: unit {unit} is not in <UnitDefinitions>"));
-        }
-        let start = match real.attribute("start") {
-            Some(s) => Some(s.parse::<f64>().map_err(|_| format!("{name}: start {s} is not a number"))?),
-            None => None,
+        let element = sv.children().find(|n| n.is_element()).ok_or(format!("{name}: no type element"))?;
+        let ty = [Type::Real, Type::Integer, Type::Boolean]
+            .into_iter()
+            .find(|t| element.has_tag_name(t.element()))
+            .ok_or(format!("{name}: only Real, Integer and Boolean variables are implemented"))?;
+        let unit = match ty {
+            Type::Real => {
+                let unit = element.attribute("unit").ok_or(format!("{name}: every Real variable must declare a unit"))?;
+                if !units.contains(unit) {
+                    return Err(format!("{name}: unit {unit} is not in <UnitDefinitions>"));
+                }
+                unit.to_string()
+            }
+            Type::Integer | Type::Boolean => {
+                let description = sv.attribute("description").unwrap_or("");
+                let unit = description
+                    .rfind('[')
+                    .and_then(|a| description[a + 1..].find(']').map(|b| &description[a + 1..a + 1 + b]))
+                    .ok_or(format!("{name}: an {} variable states its unit at the end of its description, as [1]", ty.element()))?;
+                unit.to_string()
+            }
         };
+        let start = match element.attribute("start") {
+            None => None,
+            Some(s) => Some(match ty {
+                Type::Real => format!("{:?}", s.parse::<f64>().map_err(|_| format!("{name}: start {s} is not a number"))?),
+                Type::Integer => s.parse::<i32>().map_err(|_| format!("{name}: start {s} is not a 32-bit integer"))?.to_string(),
+                Type::Boolean => match s {
+                    "true" | "1" => "true".into(),
+                    "false" | "0" => "false".into(),
+                    _ => return Err(format!("{name}: start {s} is not a Boolean")),
+                },
+            }),
+        };
+        if ty == Type::Integer {
+            for bound in ["min", "max"] {
+                if let Some(b) = element.attribute(bound) {
+                    b.parse::<i32>().map_err(|_| format!("{name}: {bound} {b} is not a 32-bit integer"))?;
+                }
+            }
+        }
         let causality = sv.attribute("causality").unwrap_or("local").to_string();
         let variability = sv.attribute("variability").unwrap_or("continuous").to_string();
         match causality.as_str() {
@@ -99,13 +156,14 @@ fn generate(text: &str) -> Result<String, String> {
         if causality == "parameter" && variability != "fixed" {
             return Err(format!("{name}: parameters are fixed (tunable parameters are not implemented)"));
         }
+        // Value references are unique per type in FMI 2.0; here they are unique overall.
         if !seen_vr.insert(vr) {
             return Err(format!("{name}: valueReference {vr} is used twice"));
         }
         if !seen_name.insert(name.clone()) {
             return Err(format!("{name}: name used twice"));
         }
-        variables.push(Variable { name, vr, causality, unit: unit.to_string(), start });
+        variables.push(Variable { name, vr, ty, causality, unit, start });
     }
 
     // ModelStructure: Outputs must list exactly the outputs, in order, by 1-based index.
@@ -168,28 +226,54 @@ fn generate(text: &str) -> Result<String, String> {
     writeln!(w, "/// Causality of a variable.").unwrap();
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]").unwrap();
     writeln!(w, "pub enum Causality {{ Input, Output, Parameter }}").unwrap();
-    writeln!(w, "/// Every Real variable of the model description.").unwrap();
+    for ty in [Type::Real, Type::Integer, Type::Boolean] {
+        let of_type: Vec<&Variable> = variables.iter().filter(|v| v.ty == ty).collect();
+        variable_enum(w, ty, &of_type);
+    }
+    writeln!(w, "/// Start values of inputs and parameters, by SCREAMING_SNAKE name.").unwrap();
+    writeln!(w, "pub mod start {{").unwrap();
+    let starts: BTreeMap<String, (&str, &str)> = variables
+        .iter()
+        .filter_map(|v| v.start.as_deref().map(|s| (screaming(&v.name), (v.ty.rust(), s))))
+        .collect();
+    for (name, (ty, value)) in starts {
+        writeln!(w, "    #[allow(missing_docs)] pub const {name}: {ty} = {value};").unwrap();
+    }
+    writeln!(w, "}}").unwrap();
+    Ok(code)
+}
+
+/// `RealVariable`, `IntegerVariable` or `BooleanVariable`: one variant per variable of that
+/// type, with its value reference, name, unit, causality and start value.
+fn variable_enum(w: &mut String, ty: Type, variables: &[&Variable]) {
+    let en = format!("{}Variable", ty.element());
+    let rust = ty.rust();
+    writeln!(w, "/// Every {} variable of the model description.", ty.element()).unwrap();
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]").unwrap();
-    writeln!(w, "pub enum RealVariable {{").unwrap();
-    for v in &variables {
+    writeln!(w, "pub enum {en} {{").unwrap();
+    for v in variables {
         writeln!(w, "    /// `{}` [{}], value reference {}.", v.name, v.unit, v.vr).unwrap();
         writeln!(w, "    {},", pascal(&v.name)).unwrap();
     }
     writeln!(w, "}}").unwrap();
-    writeln!(w, "impl RealVariable {{").unwrap();
-    writeln!(w, "    /// All Real variables in model-description order.").unwrap();
-    let all: Vec<String> = variables.iter().map(|v| format!("RealVariable::{}", pascal(&v.name))).collect();
-    writeln!(w, "    pub const ALL: [RealVariable; {}] = [{}];", all.len(), all.join(", ")).unwrap();
+    writeln!(w, "impl {en} {{").unwrap();
+    writeln!(w, "    /// All {} variables in model-description order.", ty.element()).unwrap();
+    let all: Vec<String> = variables.iter().map(|v| format!("{en}::{}", pascal(&v.name))).collect();
+    writeln!(w, "    pub const ALL: [{en}; {}] = [{}];", all.len(), all.join(", ")).unwrap();
     writeln!(w, "    /// The variable with this value reference.").unwrap();
     writeln!(w, "    pub const fn from_value_reference(vr: u32) -> Option<Self> {{ match vr {{").unwrap();
-    for v in &variables {
-        writeln!(w, "        {} => Some(RealVariable::{}),", v.vr, pascal(&v.name)).unwrap();
+    for v in variables {
+        writeln!(w, "        {} => Some({en}::{}),", v.vr, pascal(&v.name)).unwrap();
     }
     writeln!(w, "        _ => None, }} }}").unwrap();
-    let accessor = |w: &mut String, fname: &str, ty: &str, f: &dyn Fn(&Variable) -> String| {
-        writeln!(w, "    pub const fn {fname}(self) -> {ty} {{ match self {{").unwrap();
-        for v in &variables {
-            writeln!(w, "        RealVariable::{} => {},", pascal(&v.name), f(v)).unwrap();
+    let accessor = |w: &mut String, fname: &str, ret: &str, f: &dyn Fn(&Variable) -> String| {
+        if variables.is_empty() {
+            writeln!(w, "    pub const fn {fname}(self) -> {ret} {{ match self {{}} }}").unwrap();
+            return;
+        }
+        writeln!(w, "    pub const fn {fname}(self) -> {ret} {{ match self {{").unwrap();
+        for v in variables {
+            writeln!(w, "        {en}::{} => {},", pascal(&v.name), f(v)).unwrap();
         }
         writeln!(w, "    }} }}").unwrap();
     };
@@ -200,26 +284,13 @@ fn generate(text: &str) -> Result<String, String> {
     writeln!(w, "    /// Unit in the model description.").unwrap();
     accessor(w, "unit", "&'static str", &|v| format!("{:?}", v.unit));
     writeln!(w, "    /// Causality.").unwrap();
-    accessor(w, "causality", "Causality", &|v| {
-        let mut c = pascal(&v.causality);
-        c.insert_str(0, "Causality::");
-        c
-    });
+    accessor(w, "causality", "Causality", &|v| format!("Causality::{}", pascal(&v.causality)));
     writeln!(w, "    /// Start value (inputs and parameters).").unwrap();
-    accessor(w, "start", "Option<f64>", &|v| match v.start {
-        Some(s) => format!("Some({s:?})"),
+    accessor(w, "start", &format!("Option<{rust}>"), &|v| match &v.start {
+        Some(s) => format!("Some({s})"),
         None => "None".into(),
     });
     writeln!(w, "}}").unwrap();
-    writeln!(w, "/// Start values of inputs and parameters, by SCREAMING_SNAKE name.").unwrap();
-    writeln!(w, "pub mod start {{").unwrap();
-    let starts: BTreeMap<String, f64> =
-        variables.iter().filter_map(|v| v.start.map(|s| (screaming(&v.name), s))).collect();
-    for (name, value) in starts {
-        writeln!(w, "    #[allow(missing_docs)] pub const {name}: f64 = {value:?};").unwrap();
-    }
-    writeln!(w, "}}").unwrap();
-    Ok(code)
 }
 
 fn pascal(name: &str) -> String {

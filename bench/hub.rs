@@ -1,5 +1,7 @@
 //! Benchmark: one day at 1 s of a 25 000-module hub (a 60 MW class plant of 2.4 kW modules)
-//! following a seeded wind-like power reference, driven through the pure model.
+//! following a seeded wind-like power reference, driven through the pure model and through
+//! the FMU's C interface (fmi2SetReal of the reference, fmi2DoStep, fmi2GetReal of the hub's
+//! power every second, as a master does).
 //!
 //! cargo bench --bench hub
 //!
@@ -12,7 +14,10 @@ use std::time::Instant;
 
 use aem_electrolyser::model::dispatch::power_at_setpoint;
 use aem_electrolyser::model::spread::spread_parameters;
+use aem_electrolyser::fmi2::exports::*;
 use aem_electrolyser::model::{BelowMinimum, Demand, DispatchPolicy, Hub, HubConfig, OperationParameters, Parameters};
+use aem_electrolyser::model_description::{BooleanVariable, IntegerVariable, RealVariable, GUID};
+use fmi_sys::fmi2 as sys;
 
 const DAY: usize = 86_400;
 const MODULES: u32 = 25_000;
@@ -66,6 +71,61 @@ fn run(name: &str, mut hub: Hub, reference: &[f64], target: f64) {
     );
 }
 
+/// The hub through the C interface for `seconds` of the reference; returns wall seconds
+/// scaled to one day.
+fn run_c_abi(name: &str, dispatch: i32, spread: f64, reference: &[f64], seconds: usize, target: f64) {
+    let callbacks = sys::fmi2CallbackFunctions {
+        logger: None,
+        allocateMemory: None,
+        freeMemory: None,
+        stepFinished: None,
+        componentEnvironment: std::ptr::null_mut(),
+    };
+    let guid = std::ffi::CString::new(GUID).unwrap_or_default();
+    let ints = [IntegerVariable::NModules, IntegerVariable::Dispatch, IntegerVariable::BelowMinimum].map(|v| v.value_reference());
+    let int_values = [MODULES as i32, dispatch, 1];
+    let power_input = [BooleanVariable::PowerInput.value_reference()];
+    let reference_vr = [RealVariable::PowerReference.value_reference()];
+    let spread_vr = [RealVariable::ParameterSpread.value_reference()];
+    let out = [RealVariable::HubPower.value_reference()];
+    let (mut power, mut energy) = (0.0, 0.0);
+    let start = Instant::now();
+    // SAFETY: the calls follow the FMI 2.0 sequence with valid pointers.
+    let ok = unsafe {
+        let c = fmi2Instantiate(c"bench".as_ptr(), sys::fmi2Type_fmi2CoSimulation, guid.as_ptr(), std::ptr::null(), &callbacks, 0, 0);
+        let mut ok = !c.is_null()
+            && fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0) == 0
+            && fmi2SetInteger(c, ints.as_ptr(), ints.len(), int_values.as_ptr()) == 0
+            && fmi2SetBoolean(c, power_input.as_ptr(), 1, &1) == 0
+            && fmi2SetReal(c, spread_vr.as_ptr(), 1, &spread) == 0
+            && fmi2SetReal(c, reference_vr.as_ptr(), 1, &reference[0]) == 0
+            && fmi2EnterInitializationMode(c) == 0
+            && fmi2ExitInitializationMode(c) == 0;
+        let mut t = 0.0;
+        for p in &reference[..seconds] {
+            if !ok {
+                break;
+            }
+            ok = fmi2SetReal(c, reference_vr.as_ptr(), 1, p) == 0
+                && fmi2DoStep(c, t, 1.0, 1) == 0
+                && fmi2GetReal(c, out.as_ptr(), 1, &mut power) == 0;
+            energy += power;
+            t += 1.0;
+        }
+        if !c.is_null() {
+            fmi2FreeInstance(c);
+        }
+        ok
+    };
+    let secs = start.elapsed().as_secs_f64() * (DAY as f64 / seconds as f64);
+    if !ok {
+        eprintln!("{name}: a call failed");
+        return;
+    }
+    let scaled = if seconds == DAY { String::new() } else { format!(" (from {} h)", seconds / 3600) };
+    println!("{name:<28} {secs:8.3} s/day{scaled} (target <= {target} s)  energy {:.1} MWh", energy / 3.6e9);
+}
+
 fn main() {
     println!("hardware: {}", hardware());
     let base = Parameters::default();
@@ -84,6 +144,10 @@ fn main() {
             run("equal", e, &reference, 0.5);
             run("sequential", s, &reference, 1.0);
             run("individual parameters (eq)", i, &reference, 15.0);
+            println!("the same through the FMU's C interface:");
+            run_c_abi("C ABI equal", 1, 0.0, &reference, DAY, 0.5);
+            run_c_abi("C ABI sequential", 2, 0.0, &reference, DAY, 1.0);
+            run_c_abi("C ABI individual parameters", 1, 0.03, &reference, 3 * 3600, 15.0);
         }
         (e, s, i) => eprintln!("cannot build the hubs: {:?} {:?} {:?}", e.err(), s.err(), i.err()),
     }

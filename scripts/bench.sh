@@ -9,5 +9,8 @@ echo "== Rust (cargo bench --bench model_step) on $(grep -m1 'model name' /proc/
 cargo bench --locked --bench model_step -- --json target/bench/rust.json
 echo "== fmpy and Python/SciPy"
 .venv/bin/python bench/fmpy_bench.py --rust target/bench/rust.json
+echo "== hub of 25 000 modules (cargo bench --bench hub; then the equal hub through fmpy)"
+cargo bench --locked --bench hub
+.venv/bin/python bench/hub_fmpy.py
 echo "== aem-identify against its Python/SciPy peer"
 bash bench/identify_bench.sh

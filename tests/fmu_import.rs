@@ -11,7 +11,7 @@ use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common};
 use fmi::traits::{FmiImport, FmiStatus};
 
-use aem_electrolyser::model_description::{RealVariable, GUID, MODEL_IDENTIFIER};
+use aem_electrolyser::model_description::{BooleanVariable, IntegerVariable, RealVariable, GUID, MODEL_IDENTIFIER};
 
 /// Table I of the paper.
 const K: f64 = 0.534;
@@ -72,10 +72,15 @@ fn model_description_seen_by_the_fmi_crate_matches_the_generated_code() {
     let cs = md.co_simulation.as_ref().expect("a CoSimulation element");
     assert_eq!(cs.model_identifier, MODEL_IDENTIFIER);
     let variables = &md.model_variables.variables;
-    assert_eq!(variables.len(), RealVariable::ALL.len());
-    for (sv, var) in variables.iter().zip(RealVariable::ALL) {
-        assert_eq!(sv.name, var.name());
-        assert_eq!(sv.value_reference, var.value_reference());
+    let generated: Vec<(&str, u32)> = RealVariable::ALL
+        .iter()
+        .map(|v| (v.name(), v.value_reference()))
+        .chain(IntegerVariable::ALL.iter().map(|v| (v.name(), v.value_reference())))
+        .chain(BooleanVariable::ALL.iter().map(|v| (v.name(), v.value_reference())))
+        .collect();
+    assert_eq!(variables.len(), generated.len());
+    for sv in variables {
+        assert!(generated.contains(&(sv.name.as_str(), sv.value_reference)), "{} {}", sv.name, sv.value_reference);
     }
 }
 

@@ -13,9 +13,9 @@ use std::ffi::CString;
 use std::ptr::{null, null_mut};
 
 use aem_electrolyser::fmi2::exports::*;
-use aem_electrolyser::fmi2::variables::parameter_mut;
-use aem_electrolyser::model::Parameters;
-use aem_electrolyser::model_description::{Causality, RealVariable, GUID};
+use aem_electrolyser::fmi2::variables::{integer_parameter_mut, real_parameter_mut};
+use aem_electrolyser::model::{Parameters, PlantSettings};
+use aem_electrolyser::model_description::{Causality, IntegerVariable, RealVariable, GUID};
 use fmi_sys::fmi2 as sys;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -50,7 +50,7 @@ fn real_value() -> impl Strategy<Value = f64> {
 fn value_reference() -> impl Strategy<Value = u32> {
     prop_oneof![
         6 => (0..RealVariable::ALL.len()).prop_map(|i| RealVariable::ALL[i].value_reference()),
-        1 => Just(7u32),
+        1 => Just(19u32),
         1 => Just(99u32),
         1 => Just(u32::MAX),
     ]
@@ -88,6 +88,8 @@ enum Op {
     GarbageComponent,
     GarbageState,
     IntegerCall { vr: u32 },
+    /// A hub setting: an Integer parameter, or powerInput.
+    SetSetting { vr: u32, value: i32 },
     Unsupported { which: u8 },
     InputDerivative { vr: u32, order: i32, value: f64 },
     Status { kind: u32 },
@@ -128,6 +130,11 @@ fn op() -> impl Strategy<Value = Op> {
         1 => Just(Op::GarbageComponent),
         1 => Just(Op::GarbageState),
         1 => prop_oneof![Just(0u32), Just(5u32)].prop_map(|vr| Op::IntegerCall { vr }),
+        2 => (
+            prop_oneof![4 => (0..IntegerVariable::ALL.len()).prop_map(|i| IntegerVariable::ALL[i].value_reference()), 1 => Just(300u32)],
+            prop_oneof![6 => -1..6i32, 1 => Just(40i32), 1 => Just(i32::MAX), 1 => Just(i32::MIN)]
+        )
+            .prop_map(|(vr, value)| Op::SetSetting { vr, value }),
         1 => (1u8..4).prop_map(|which| Op::Unsupported { which }),
         3 => (value_reference(), prop_oneof![4 => Just(1i32), 1 => Just(0i32), 1 => Just(2i32)], prop_oneof![4 => -3.0..3.0f64, 1 => Just(f64::NAN)])
             .prop_map(|(vr, order, value)| Op::InputDerivative { vr, order, value }),
@@ -142,11 +149,26 @@ struct View {
     time: f64,
     stop: Option<f64>,
     params: Parameters,
+    settings: PlantSettings,
 }
 
 impl View {
     fn fresh() -> View {
-        View { state: State::Instantiated, time: 0.0, stop: None, params: Parameters::default() }
+        View { state: State::Instantiated, time: 0.0, stop: None, params: Parameters::default(), settings: PlantSettings::default() }
+    }
+
+    /// Whether fmi2ExitInitializationMode succeeds: valid parameters and settings, and a
+    /// power reference needs a polarisation curve that draws power.
+    fn initialisable(&self) -> bool {
+        let p = &self.params;
+        let power_without_curve = self.settings.power_input && p.voltage_intercept == 0.0 && p.ohmic_resistance == 0.0;
+        p.validate().is_ok() && self.settings.config().is_ok_and(|c| c.is_single_module() || !power_without_curve)
+    }
+
+    /// Whether a single module, which integrates a setpoint slope, is simulated (also while
+    /// the settings are invalid: the FMU then cannot know better).
+    fn single_module(&self) -> bool {
+        self.settings.config().map_or(true, |c| c.is_single_module())
     }
 }
 
@@ -160,12 +182,14 @@ struct Harness {
 }
 
 /// Parameters of physically sensible magnitude, for which every valid step must succeed.
-fn moderate(p: &Parameters) -> bool {
+fn moderate(p: &Parameters, s: &PlantSettings) -> bool {
     let values = [
         p.gain, p.tau_zero, p.tau_pole1, p.tau_pole2, p.ramp_up_limit, p.voltage_intercept,
         p.ohmic_resistance, p.h2_coefficient, p.nominal_current, p.min_setpoint, p.max_setpoint,
+        s.hysteresis, s.cold_start_time, s.warm_start_time, s.start_power, s.standby_power,
+        s.standby_duration, s.stop_duration,
     ];
-    values.iter().all(|v| v.abs() <= 1e6)
+    values.iter().all(|v| v.abs() <= 1e6) && s.n_modules <= 1000
 }
 
 fn is_ok(status: sys::fmi2Status) -> bool {
@@ -220,8 +244,8 @@ impl Harness {
                 }
                 Op::Exit => {
                     let s = fmi2ExitInitializationMode(c);
-                    let valid = self.allowed(&[Init]) && self.view.params.validate().is_ok();
-                    prop_assert_eq!(is_ok(s), valid, "exit in {:?} with {:?}", self.view.state, self.view.params);
+                    let valid = self.allowed(&[Init]) && self.view.initialisable();
+                    prop_assert_eq!(is_ok(s), valid, "exit in {:?} with {:?} {:?}", self.view.state, self.view.params, self.view.settings);
                     if valid {
                         self.view.state = Step;
                     }
@@ -262,7 +286,7 @@ impl Harness {
                     if valid {
                         for (vr, x) in vrs.iter().zip(values) {
                             let var = RealVariable::from_value_reference(*vr).unwrap();
-                            if let Some(field) = parameter_mut(&mut self.view.params, var) {
+                            if let Some(field) = real_parameter_mut(&mut self.view.params, &mut self.view.settings, var) {
                                 *field = *x;
                             }
                         }
@@ -281,7 +305,7 @@ impl Harness {
                         RealVariable::from_value_reference(*vr).is_some_and(|v| v.causality() == Causality::Output)
                     });
                     // In initialization mode outputs follow from the parameters, if valid.
-                    let computable = self.view.state != Init || !outputs || self.view.params.validate().is_ok();
+                    let computable = self.view.state != Init || !outputs || self.view.initialisable();
                     if !(allowed && pointers_ok && known && computable) {
                         prop_assert!(!is_ok(s), "getReal {:?} in {:?} must fail", op, self.view.state);
                     } else {
@@ -303,7 +327,7 @@ impl Harness {
                     let valid = self.allowed(&[Step]) && on_time && h.is_finite() && *h > 0.0 && before_stop;
                     if !valid {
                         prop_assert!(!is_ok(s), "doStep {:?} in {:?} must fail", op, self.view.state);
-                    } else if *h < 1e6 && moderate(&self.view.params) {
+                    } else if *h < 1e6 && moderate(&self.view.params, &self.view.settings) {
                         // (Huge steps or parameters may overflow the energy total: refusing
                         // those is correct; accepting them with non-finite outputs is not.)
                         prop_assert!(is_ok(s), "doStep {:?} must succeed", op);
@@ -402,6 +426,27 @@ impl Harness {
                     prop_assert!(!is_ok(fmi2GetInteger(c, vrs.as_ptr(), 1, &mut v)));
                     prop_assert!(!is_ok(fmi2SetBoolean(c, vrs.as_ptr(), 1, &v)));
                 }
+                Op::SetSetting { vr, value } => {
+                    let vrs = [*vr];
+                    let s = if *vr == 300 { fmi2SetBoolean(c, vrs.as_ptr(), 1, value) } else { fmi2SetInteger(c, vrs.as_ptr(), 1, value) };
+                    let parameter = *vr == 300
+                        || IntegerVariable::from_value_reference(*vr).is_some_and(|v| v.causality() == Causality::Parameter);
+                    let valid = self.allowed(&[Instantiated, Init]) && parameter;
+                    prop_assert_eq!(is_ok(s), valid, "{:?} in {:?}", op, self.view.state);
+                    if valid {
+                        if *vr == 300 {
+                            self.view.settings.power_input = *value != 0;
+                        } else if let Some(field) = IntegerVariable::from_value_reference(*vr).and_then(|v| integer_parameter_mut(&mut self.view.settings, v)) {
+                            *field = *value;
+                        }
+                    }
+                    // Every Integer reads back (outputs once computable).
+                    let mut back = 0;
+                    let s = fmi2GetInteger(c, vrs.as_ptr(), 1, &mut back);
+                    if *vr != 300 && self.allowed(&[Init, Step, Terminated]) && (self.view.state != Init || self.view.initialisable()) {
+                        prop_assert!(is_ok(s), "getInteger {} in {:?}", vr, self.view.state);
+                    }
+                }
                 Op::Unsupported { which } => {
                     let vrs = [0u32];
                     let order = [1i32];
@@ -418,10 +463,16 @@ impl Harness {
                     let orders = [*order];
                     let s = fmi2SetRealInputDerivatives(c, vrs.as_ptr(), 1, orders.as_ptr(), value);
                     // Orders above 1 are accepted (with a warning) and ignored; 0 is not an order.
+                    // A hub holds its inputs over a step: it refuses a non-zero first derivative
+                    // of the input that drives it.
+                    let input = RealVariable::from_value_reference(*vr).filter(|v| v.causality() == Causality::Input);
+                    let drives = input.is_some_and(|v| (v == RealVariable::PowerReference) == self.view.settings.power_input);
+                    let hub_refuses = *order == 1 && *value != 0.0 && drives && !self.view.single_module();
                     let valid = self.allowed(&[Instantiated, Init, Step])
-                        && *vr == RealVariable::Setpoint.value_reference()
+                        && input.is_some()
                         && *order >= 1
-                        && value.is_finite();
+                        && value.is_finite()
+                        && !hub_refuses;
                     prop_assert_eq!(is_ok(s), valid, "{:?} in {:?}", op, self.view.state);
                 }
                 Op::Status { kind } => {

@@ -329,29 +329,40 @@ pub unsafe extern "C" fn fmi2SetReal(
 }
 const _: sys::fmi2SetRealTYPE = Some(fmi2SetReal);
 
-/// No Integer variables: only an empty request succeeds.
+/// Reads Integer variables (hub settings, operating state, module counts).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetInteger(
     c: fmi2Component,
     vr: *const sys::fmi2ValueReference,
     nvr: usize,
-    _value: *mut sys::fmi2Integer,
+    value: *mut sys::fmi2Integer,
 ) -> fmi2Status {
-    // SAFETY: the importer passes nvr value references.
-    guard(c, Call::GetInteger, |_| no_variables_of("Integer", unsafe { slice(vr, nvr, "vr") }?))
+    guard(c, Call::GetInteger, |inst| {
+        // SAFETY: the importer passes nvr value references and room for nvr values.
+        let (vrs, values) = unsafe { (slice(vr, nvr, "vr")?, slice_mut(value, nvr, "value")?) };
+        inst.get_integer(vrs, values)
+    })
 }
 const _: sys::fmi2GetIntegerTYPE = Some(fmi2GetInteger);
 
-/// No Boolean variables: only an empty request succeeds.
+/// Reads Boolean variables (fmi2True = 1, fmi2False = 0).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetBoolean(
     c: fmi2Component,
     vr: *const sys::fmi2ValueReference,
     nvr: usize,
-    _value: *mut fmi2Boolean,
+    value: *mut fmi2Boolean,
 ) -> fmi2Status {
-    // SAFETY: the importer passes nvr value references.
-    guard(c, Call::GetBoolean, |_| no_variables_of("Boolean", unsafe { slice(vr, nvr, "vr") }?))
+    guard(c, Call::GetBoolean, |inst| {
+        // SAFETY: the importer passes nvr value references and room for nvr values.
+        let (vrs, values) = unsafe { (slice(vr, nvr, "vr")?, slice_mut(value, nvr, "value")?) };
+        let mut flags = vec![false; vrs.len()];
+        let status = inst.get_boolean(vrs, &mut flags)?;
+        for (out, flag) in values.iter_mut().zip(flags) {
+            *out = flag as fmi2Boolean;
+        }
+        Ok(status)
+    })
 }
 const _: sys::fmi2GetBooleanTYPE = Some(fmi2GetBoolean);
 
@@ -368,29 +379,36 @@ pub unsafe extern "C" fn fmi2GetString(
 }
 const _: sys::fmi2GetStringTYPE = Some(fmi2GetString);
 
-/// No Integer variables: only an empty request succeeds.
+/// Writes Integer parameters (before initialisation ends); all or nothing.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetInteger(
     c: fmi2Component,
     vr: *const sys::fmi2ValueReference,
     nvr: usize,
-    _value: *const sys::fmi2Integer,
+    value: *const sys::fmi2Integer,
 ) -> fmi2Status {
-    // SAFETY: the importer passes nvr value references.
-    guard(c, Call::SetInteger, |_| no_variables_of("Integer", unsafe { slice(vr, nvr, "vr") }?))
+    guard(c, Call::SetInteger, |inst| {
+        // SAFETY: the importer passes nvr value references and nvr values.
+        let (vrs, values) = unsafe { (slice(vr, nvr, "vr")?, slice(value, nvr, "value")?) };
+        inst.set_integer(vrs, values)
+    })
 }
 const _: sys::fmi2SetIntegerTYPE = Some(fmi2SetInteger);
 
-/// No Boolean variables: only an empty request succeeds.
+/// Writes Boolean parameters (before initialisation ends; any non-zero value is true).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetBoolean(
     c: fmi2Component,
     vr: *const sys::fmi2ValueReference,
     nvr: usize,
-    _value: *const fmi2Boolean,
+    value: *const fmi2Boolean,
 ) -> fmi2Status {
-    // SAFETY: the importer passes nvr value references.
-    guard(c, Call::SetBoolean, |_| no_variables_of("Boolean", unsafe { slice(vr, nvr, "vr") }?))
+    guard(c, Call::SetBoolean, |inst| {
+        // SAFETY: the importer passes nvr value references and nvr values.
+        let (vrs, values) = unsafe { (slice(vr, nvr, "vr")?, slice(value, nvr, "value")?) };
+        let flags: Vec<bool> = values.iter().map(|v| *v != 0).collect();
+        inst.set_boolean(vrs, &flags)
+    })
 }
 const _: sys::fmi2SetBooleanTYPE = Some(fmi2SetBoolean);
 

@@ -2,20 +2,26 @@
 //!
 //! Serialised layout (little endian): magic "AEMFMUST", format version (u32), payload
 //! length (u32), payload, CRC-32 of everything before it (u32). The payload holds the GUID
-//! and every field of [`SavedState`]; on the way back in, magic, version, length, checksum,
-//! GUID, enum codes and parameter validity are all checked.
+//! and every field of [`SavedState`] in order: flags, parameters, settings, inputs, times,
+//! then the plant (a module's state, or a hub's groups and totals). On the way back in,
+//! magic, version, length, checksum, GUID, enum codes, finiteness and the plant's
+//! consistency with its settings are all checked.
 
-use crate::model::{CurrentState, ModuleState, Parameters};
+use crate::model::hub::{Group, HubSnapshot, HubTotals};
+use crate::model::operation::UnitState;
+use crate::model::{CurrentState, ModuleState, OperatingState, Parameters, PlantSettings, PlantSnapshot};
 use crate::model_description::GUID;
 
 use super::state_machine::FmiState;
+use super::variables::Inputs;
 
 const MAGIC: &[u8; 8] = b"AEMFMUST";
 /// Version of the serialised format; bump it whenever the payload changes.
-pub const FORMAT_VERSION: u32 = 3;
-/// Number of Reals in the payload.
-const REALS: usize = 21;
+pub const FORMAT_VERSION: u32 = 4;
 const SAVED_MAGIC: u64 = 0x4145_4d5f_5354_4154; // "AEM_STAT"
+const PLANT_NONE: u8 = 0;
+const PLANT_MODULE: u8 = 1;
+const PLANT_HUB: u8 = 2;
 
 /// A complete copy of an instance's state.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,9 +32,11 @@ pub struct SavedState {
     pub fmi_state: FmiState,
     /// Parameters (they may differ from the start values).
     pub params: Parameters,
-    /// Input value as last set [%].
-    pub setpoint: f64,
-    /// Its derivative for the next step [%/s].
+    /// Hub settings.
+    pub settings: PlantSettings,
+    /// Input values as last set.
+    pub inputs: Inputs,
+    /// The setpoint's derivative for the next step [%/s].
     pub setpoint_slope: f64,
     /// Whether the setpoint is outside the window (a warning was logged).
     pub excursion: bool,
@@ -36,8 +44,8 @@ pub struct SavedState {
     pub time: f64,
     /// stopTime of fmi2SetupExperiment, if defined [s].
     pub stop_time: Option<f64>,
-    /// Module state, once initialised.
-    pub module: Option<ModuleState>,
+    /// The plant's state, once initialised.
+    pub plant: Option<PlantSnapshot>,
 }
 
 impl SavedState {
@@ -46,14 +54,15 @@ impl SavedState {
     pub fn new(
         fmi_state: FmiState,
         params: Parameters,
-        setpoint: f64,
+        settings: PlantSettings,
+        inputs: Inputs,
         setpoint_slope: f64,
         excursion: bool,
         time: f64,
         stop_time: Option<f64>,
-        module: Option<ModuleState>,
+        plant: Option<PlantSnapshot>,
     ) -> Self {
-        SavedState { magic: SAVED_MAGIC, fmi_state, params, setpoint, setpoint_slope, excursion, time, stop_time, module }
+        SavedState { magic: SAVED_MAGIC, fmi_state, params, settings, inputs, setpoint_slope, excursion, time, stop_time, plant }
     }
 
     /// Whether `ptr` is aligned and its memory carries a saved state's magic (a cheap guard
@@ -70,51 +79,67 @@ impl SavedState {
         self.magic = 0;
     }
 
-    fn reals(&self) -> [f64; REALS] {
-        let p = &self.params;
-        let m = self.module.unwrap_or(ModuleState {
-            time: 0.0,
-            current: CurrentState { z1: 0.0, z2: 0.0, current: 0.0 },
-            energy: 0.0,
-            h2_produced: 0.0,
-        });
-        [
-            self.setpoint,
-            self.time,
-            p.gain,
-            p.tau_zero,
-            p.tau_pole1,
-            p.tau_pole2,
-            p.ramp_up_limit,
-            p.voltage_intercept,
-            p.ohmic_resistance,
-            p.h2_coefficient,
-            p.nominal_current,
-            p.min_setpoint,
-            p.max_setpoint,
-            m.time,
-            m.current.z1,
-            m.current.z2,
-            m.current.current,
-            m.energy,
-            m.h2_produced,
-            self.setpoint_slope,
-            self.stop_time.unwrap_or(0.0),
-        ]
-    }
-
     /// The serialised bytes.
     pub fn serialize(&self) -> Vec<u8> {
-        let mut payload = Vec::with_capacity(256);
-        payload.extend_from_slice(&(GUID.len() as u32).to_le_bytes());
-        payload.extend_from_slice(GUID.as_bytes());
-        payload.push(self.fmi_state.code());
-        payload.push(self.excursion as u8);
-        payload.push(self.module.is_some() as u8);
-        payload.push(self.stop_time.is_some() as u8);
-        for x in self.reals() {
-            payload.extend_from_slice(&x.to_le_bytes());
+        let mut w = Writer(Vec::with_capacity(512));
+        w.u32(GUID.len() as u32);
+        w.bytes(GUID.as_bytes());
+        w.u8(self.fmi_state.code());
+        w.u8(self.excursion as u8);
+        w.u8(self.stop_time.is_some() as u8);
+        for x in parameter_values(&self.params) {
+            w.f64(x);
         }
+        let s = &self.settings;
+        for i in [s.n_modules, s.dispatch, s.below_minimum, s.spread_seed] {
+            w.u32(i as u32);
+        }
+        w.u8(s.power_input as u8);
+        for x in [
+            s.hysteresis,
+            s.cold_start_time,
+            s.warm_start_time,
+            s.start_power,
+            s.standby_power,
+            s.standby_duration,
+            s.stop_duration,
+            s.parameter_spread,
+        ] {
+            w.f64(x);
+        }
+        for x in [self.inputs.setpoint, self.inputs.power_reference, self.setpoint_slope, self.time, self.stop_time.unwrap_or(0.0)] {
+            w.f64(x);
+        }
+        match &self.plant {
+            None => w.u8(PLANT_NONE),
+            Some(PlantSnapshot::Module(m)) => {
+                w.u8(PLANT_MODULE);
+                for x in [m.time, m.current.z1, m.current.z2, m.current.current, m.energy, m.h2_produced] {
+                    w.f64(x);
+                }
+            }
+            Some(PlantSnapshot::Hub(h)) => {
+                w.u8(PLANT_HUB);
+                w.u32(h.groups.len() as u32);
+                for g in &h.groups {
+                    w.u32(g.count);
+                    w.u32(g.kind);
+                    w.u8(g.active as u8);
+                    w.u8(g.unit.state.code() as u8);
+                    for x in [g.unit.timer, g.unit.current.z1, g.unit.current.z2, g.unit.current.current, g.running] {
+                        w.f64(x);
+                    }
+                    w.u64(g.starts);
+                }
+                w.u32(h.running_target);
+                let t = &h.totals;
+                for x in [t.time, t.energy, t.h2_produced, t.running] {
+                    w.f64(x);
+                }
+                w.u64(t.starts);
+            }
+        }
+        let payload = w.0;
         let mut out = Vec::with_capacity(payload.len() + 20);
         out.extend_from_slice(MAGIC);
         out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
@@ -143,44 +168,137 @@ impl SavedState {
         if crc != crc32fast::hash(&bytes[..16 + len]) {
             return Err("serialised state is corrupt (checksum mismatch)".into());
         }
+        r.bytes = &bytes[..16 + len];
         let guid_len = r.u32()? as usize;
         if r.take(guid_len)? != GUID.as_bytes() {
             return Err(format!("serialised state belongs to another model (GUID differs from {GUID})"));
         }
         let fmi_state = FmiState::from_code(r.u8()?).ok_or("serialised state has an unknown FMI state")?;
         let excursion = r.flag()?;
-        let has_module = r.flag()?;
         let has_stop = r.flag()?;
-        let mut x = [0.0; REALS];
-        for v in x.iter_mut() {
-            *v = r.f64()?;
-        }
-        if let Some(bad) = x.iter().position(|v| !v.is_finite()) {
-            return Err(format!("serialised state holds a non-finite value at position {bad}"));
+        let mut p = [0.0; 11];
+        for v in p.iter_mut() {
+            *v = r.finite()?;
         }
         let params = Parameters {
-            gain: x[2],
-            tau_zero: x[3],
-            tau_pole1: x[4],
-            tau_pole2: x[5],
-            ramp_up_limit: x[6],
-            voltage_intercept: x[7],
-            ohmic_resistance: x[8],
-            h2_coefficient: x[9],
-            nominal_current: x[10],
-            min_setpoint: x[11],
-            max_setpoint: x[12],
+            gain: p[0],
+            tau_zero: p[1],
+            tau_pole1: p[2],
+            tau_pole2: p[3],
+            ramp_up_limit: p[4],
+            voltage_intercept: p[5],
+            ohmic_resistance: p[6],
+            h2_coefficient: p[7],
+            nominal_current: p[8],
+            min_setpoint: p[9],
+            max_setpoint: p[10],
         };
-        let module = has_module.then_some(ModuleState {
-            time: x[13],
-            current: CurrentState { z1: x[14], z2: x[15], current: x[16] },
-            energy: x[17],
-            h2_produced: x[18],
-        });
-        if module.is_some() {
-            params.validate().map_err(|e| format!("serialised state holds invalid parameters: {e}"))?;
+        let (n_modules, dispatch, below_minimum, spread_seed) = (r.u32()? as i32, r.u32()? as i32, r.u32()? as i32, r.u32()? as i32);
+        let power_input = r.flag()?;
+        let mut x = [0.0; 8];
+        for v in x.iter_mut() {
+            *v = r.finite()?;
         }
-        Ok(SavedState::new(fmi_state, params, x[0], x[19], excursion, x[1], has_stop.then_some(x[20]), module))
+        let settings = PlantSettings {
+            n_modules,
+            dispatch,
+            below_minimum,
+            power_input,
+            hysteresis: x[0],
+            cold_start_time: x[1],
+            warm_start_time: x[2],
+            start_power: x[3],
+            standby_power: x[4],
+            standby_duration: x[5],
+            stop_duration: x[6],
+            parameter_spread: x[7],
+            spread_seed,
+        };
+        let inputs = Inputs { setpoint: r.finite()?, power_reference: r.finite()? };
+        let (setpoint_slope, time, stop) = (r.finite()?, r.finite()?, r.finite()?);
+        let plant = match r.u8()? {
+            PLANT_NONE => None,
+            PLANT_MODULE => {
+                let mut m = [0.0; 6];
+                for v in m.iter_mut() {
+                    *v = r.finite()?;
+                }
+                let current = CurrentState { z1: m[1], z2: m[2], current: m[3] };
+                Some(PlantSnapshot::Module(ModuleState { time: m[0], current, energy: m[4], h2_produced: m[5] }))
+            }
+            PLANT_HUB => Some(PlantSnapshot::Hub(read_hub(&mut r)?)),
+            other => return Err(format!("serialised state has an unknown plant kind {other}")),
+        };
+        if r.pos != r.bytes.len() {
+            return Err("serialised state has trailing bytes".into());
+        }
+        if plant.is_some() {
+            params.validate().map_err(|e| format!("serialised state holds invalid parameters: {e}"))?;
+            settings.config().map_err(|e| format!("serialised state holds invalid settings: {e}"))?;
+        }
+        Ok(SavedState::new(fmi_state, params, settings, inputs, setpoint_slope, excursion, time, has_stop.then_some(stop), plant))
+    }
+}
+
+/// The parameters in serialised order.
+fn parameter_values(p: &Parameters) -> [f64; 11] {
+    [
+        p.gain,
+        p.tau_zero,
+        p.tau_pole1,
+        p.tau_pole2,
+        p.ramp_up_limit,
+        p.voltage_intercept,
+        p.ohmic_resistance,
+        p.h2_coefficient,
+        p.nominal_current,
+        p.min_setpoint,
+        p.max_setpoint,
+    ]
+}
+
+/// A hub's groups and totals; the group count is bounded by the bytes that hold them.
+fn read_hub(r: &mut Reader) -> Result<HubSnapshot, String> {
+    const GROUP_BYTES: usize = 4 + 4 + 1 + 1 + 5 * 8 + 8;
+    let n = r.u32()? as usize;
+    if n.checked_mul(GROUP_BYTES).is_none_or(|b| b > r.bytes.len() - r.pos) {
+        return Err("serialised state is truncated (hub groups)".into());
+    }
+    let mut groups = Vec::with_capacity(n);
+    for _ in 0..n {
+        let (count, kind) = (r.u32()?, r.u32()?);
+        let active = r.flag()?;
+        let code = r.u8()?;
+        let state = OperatingState::ALL
+            .into_iter()
+            .find(|s| s.code() == code as i32)
+            .ok_or(format!("serialised state has an unknown operating state {code}"))?;
+        let (timer, z1, z2, current, running) = (r.finite()?, r.finite()?, r.finite()?, r.finite()?, r.finite()?);
+        let starts = r.u64()?;
+        groups.push(Group { count, kind, active, unit: UnitState { state, timer, current: CurrentState { z1, z2, current } }, running, starts });
+    }
+    let running_target = r.u32()?;
+    let totals = HubTotals { time: r.finite()?, energy: r.finite()?, h2_produced: r.finite()?, running: r.finite()?, starts: r.u64()? };
+    Ok(HubSnapshot { groups, running_target, totals })
+}
+
+struct Writer(Vec<u8>);
+
+impl Writer {
+    fn u8(&mut self, x: u8) {
+        self.0.push(x);
+    }
+    fn u32(&mut self, x: u32) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    fn u64(&mut self, x: u64) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    fn f64(&mut self, x: f64) {
+        self.0.extend_from_slice(&x.to_le_bytes());
+    }
+    fn bytes(&mut self, b: &[u8]) {
+        self.0.extend_from_slice(b);
     }
 }
 
@@ -210,11 +328,21 @@ impl<'a> Reader<'a> {
         let b = self.take(4)?;
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
-    fn f64(&mut self) -> Result<f64, String> {
-        let b = self.take(8)?;
+    fn u64(&mut self) -> Result<u64, String> {
         let mut a = [0u8; 8];
-        a.copy_from_slice(b);
-        Ok(f64::from_le_bytes(a))
+        a.copy_from_slice(self.take(8)?);
+        Ok(u64::from_le_bytes(a))
+    }
+    /// A finite f64 (saved states hold only finite numbers).
+    fn finite(&mut self) -> Result<f64, String> {
+        let mut a = [0u8; 8];
+        a.copy_from_slice(self.take(8)?);
+        let x = f64::from_le_bytes(a);
+        if x.is_finite() {
+            Ok(x)
+        } else {
+            Err(format!("serialised state holds a non-finite value at byte {}", self.pos - 8))
+        }
     }
 }
 
@@ -229,7 +357,30 @@ mod tests {
             energy: 1.0e6,
             h2_produced: 33.0,
         };
-        SavedState::new(FmiState::StepComplete, Parameters::default(), 73.0, -0.25, false, 112.5, Some(3600.0), Some(module))
+        let inputs = Inputs { setpoint: 73.0, power_reference: 1.5e6 };
+        let plant = Some(PlantSnapshot::Module(module));
+        SavedState::new(FmiState::StepComplete, Parameters::default(), PlantSettings::default(), inputs, -0.25, false, 112.5, Some(3600.0), plant)
+    }
+
+    fn hub_sample() -> SavedState {
+        let settings = PlantSettings { n_modules: 10, dispatch: 2, below_minimum: 1, power_input: true, ..PlantSettings::default() };
+        let config = settings.config().unwrap();
+        let mut plant = crate::model::Plant::new(Parameters::default(), &config, 0.0, 12_000.0).unwrap();
+        for k in 0..400 {
+            plant.step(&config, 0.0, 0.0, if k < 100 { 3_000.0 } else { 20_000.0 }, 1.0).unwrap();
+        }
+        let inputs = Inputs { setpoint: 0.0, power_reference: 20_000.0 };
+        SavedState::new(FmiState::StepComplete, Parameters::default(), settings, inputs, 0.0, false, 400.0, None, Some(plant.snapshot()))
+    }
+
+    #[test]
+    fn a_hub_round_trips_exactly() {
+        let s = hub_sample();
+        match &s.plant {
+            Some(PlantSnapshot::Hub(h)) => assert!(h.groups.len() >= 2, "a sequential hub mid-start has several groups"),
+            _ => panic!("not a hub"),
+        }
+        assert_eq!(SavedState::deserialize(&s.serialize()), Ok(s));
     }
 
     #[test]
@@ -240,7 +391,13 @@ mod tests {
 
     #[test]
     fn every_corruption_is_refused() {
-        let bytes = sample().serialize();
+        for bytes in [sample().serialize(), hub_sample().serialize()] {
+            every_corruption_of(&bytes);
+        }
+    }
+
+    fn every_corruption_of(bytes: &[u8]) {
+        let bytes = bytes.to_vec();
         for i in 0..bytes.len() {
             let mut b = bytes.clone();
             b[i] ^= 0x5a;

@@ -4,14 +4,16 @@
 //! slices and call one method here. Every method either succeeds or returns a [`Failure`]
 //! having changed nothing.
 
-use crate::model::{shown, Module, Parameters};
-use crate::model_description::{Causality, RealVariable};
+use crate::model::{shown, Parameters, Plant, PlantConfig, PlantSettings};
+use crate::model_description::{BooleanVariable, Causality, IntegerVariable, RealVariable};
 
 use super::fmu_state::SavedState;
 use super::logger::{Logger, LOG_EVENTS};
 use super::state_machine::FmiState;
 use super::status::{discard, error, CallResult, Status};
-use super::variables::{input_mut, output, parameter_mut};
+use super::variables::{
+    boolean_parameter_mut, integer_output, integer_parameter_mut, real_input_mut, real_output, real_parameter_mut, Inputs,
+};
 
 /// Relative tolerance when comparing a master's communication point with the FMU's time;
 /// masters that sum their step sizes drift by a few ulps from any other sum.
@@ -32,14 +34,16 @@ pub struct Instance {
     /// Where the instance is in the FMI state machine.
     pub state: FmiState,
     params: Parameters,
-    setpoint: f64,
+    settings: PlantSettings,
+    inputs: Inputs,
     /// d(setpoint)/dt for the next step [%/s], from fmi2SetRealInputDerivatives.
     setpoint_slope: f64,
     excursion: bool,
     time: f64,
     /// stopTime of fmi2SetupExperiment, if defined: steps past it are refused [s].
     stop_time: Option<f64>,
-    module: Option<Module>,
+    /// The validated settings and the plant, once initialised.
+    plant: Option<(PlantConfig, Plant)>,
 }
 
 impl Instance {
@@ -50,12 +54,13 @@ impl Instance {
             logger,
             state: FmiState::Instantiated,
             params: Parameters::default(),
-            setpoint: crate::model_description::start::SETPOINT,
+            settings: PlantSettings::default(),
+            inputs: Inputs::default(),
             setpoint_slope: 0.0,
             excursion: false,
             time: 0.0,
             stop_time: None,
-            module: None,
+            plant: None,
         }
     }
 
@@ -97,18 +102,41 @@ impl Instance {
         Ok(Status::Ok)
     }
 
-    /// fmi2ExitInitializationMode: validates the parameters and starts the module in steady
-    /// state at the current setpoint.
+    /// The plant for the current parameters, settings and inputs, in steady state.
+    fn build_plant(&self) -> Result<(PlantConfig, Plant), String> {
+        let config = self.settings.config().map_err(|e| e.to_string())?;
+        let plant = Plant::new(self.params, &config, self.inputs.setpoint, self.inputs.power_reference).map_err(|e| e.to_string())?;
+        Ok((config, plant))
+    }
+
+    /// fmi2ExitInitializationMode: validates the parameters and settings and starts the
+    /// module or hub in steady state for the current inputs.
     pub fn exit_initialization_mode(&mut self) -> CallResult {
-        let module = Module::new(self.params, self.setpoint)
-            .map_err(|e| error(format!("initialisation refused: {e}")))?;
+        let (config, plant) = self.build_plant().map_err(|e| error(format!("initialisation refused: {e}")))?;
+        let what = if config.is_single_module() { "one module".to_string() } else { format!("a hub of {} modules", config.hub.n_modules) };
         self.logger.info(
             LOG_EVENTS,
-            &format!("initialised at t = {} s in steady state: setpoint {} %, current {} A", self.time, self.setpoint, module.current()),
+            &format!(
+                "initialised {what} at t = {} s in steady state: {} modules running, power {} W",
+                self.time,
+                plant.count_in(crate::model::OperatingState::Steady),
+                plant.hub_power()
+            ),
         );
-        self.module = Some(module);
+        let slope_dropped = !plant.takes_setpoint_slope() && self.setpoint_slope != 0.0;
+        self.plant = Some((config, plant));
         self.state = FmiState::StepComplete;
-        Ok(self.update_excursion())
+        let status = self.update_excursion();
+        if slope_dropped {
+            // Set while the settings still described a single module.
+            self.logger.warning(&format!(
+                "d(setpoint)/dt = {} %/s set before initialisation is dropped: a hub holds its inputs over a step",
+                shown(self.setpoint_slope)
+            ));
+            self.setpoint_slope = 0.0;
+            return Ok(Status::Warning);
+        }
+        Ok(status)
     }
 
     /// fmi2Terminate.
@@ -127,74 +155,91 @@ impl Instance {
         Ok(Status::Ok)
     }
 
+    /// Calls `f` with the plant: the running one, or in initialization mode one built from
+    /// the current start values.
+    fn with_plant<T>(&self, name: &str, f: impl FnOnce(&Plant) -> T) -> Result<T, String> {
+        match &self.plant {
+            Some((_, plant)) => Ok(f(plant)),
+            None => self.build_plant().map(|(_, plant)| f(&plant)).map_err(|e| format!("{name} cannot be computed yet: {e}")),
+        }
+    }
+
     /// The value of one Real variable.
     fn real(&self, var: RealVariable) -> Result<f64, String> {
-        match var.causality() {
-            Causality::Input => {
-                let mut setpoint = self.setpoint;
-                input_mut(&mut setpoint, var).map(|v| *v).ok_or_else(|| format!("{} is not an input", var.name()))
-            }
-            Causality::Parameter => {
-                let mut params = self.params;
-                parameter_mut(&mut params, var).map(|v| *v).ok_or_else(|| format!("{} is not a parameter", var.name()))
-            }
-            Causality::Output => {
-                let value = match &self.module {
-                    Some(module) => output(var, module),
-                    // In initialization mode outputs follow from the current start values.
-                    None => output(
-                        var,
-                        &Module::new(self.params, self.setpoint)
-                            .map_err(|e| format!("{} cannot be computed yet: {e}", var.name()))?,
-                    ),
-                };
-                value.ok_or_else(|| format!("{} is not an output", var.name()))
-            }
-        }
+        let (mut params, mut settings, mut inputs) = (self.params, self.settings, self.inputs);
+        let value = match var.causality() {
+            Causality::Input => real_input_mut(&mut inputs, var).map(|v| *v),
+            Causality::Parameter => real_parameter_mut(&mut params, &mut settings, var).map(|v| *v),
+            Causality::Output => self.with_plant(var.name(), |plant| real_output(var, plant))?,
+        };
+        value.ok_or_else(|| format!("{} has no value here", var.name()))
     }
 
     /// fmi2GetReal.
     pub fn get_real(&self, vrs: &[u32], values: &mut [f64]) -> CallResult {
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
-            let var = known_variable(*vr)?;
+            let var = known(*vr, RealVariable::from_value_reference, "Real")?;
             *out = self.real(var).map_err(error)?;
         }
         Ok(Status::Ok)
     }
 
+    /// fmi2GetInteger.
+    pub fn get_integer(&self, vrs: &[u32], values: &mut [i32]) -> CallResult {
+        for (vr, out) in vrs.iter().zip(values.iter_mut()) {
+            let var = known(*vr, IntegerVariable::from_value_reference, "Integer")?;
+            let mut settings = self.settings;
+            let value = match var.causality() {
+                Causality::Parameter => integer_parameter_mut(&mut settings, var).map(|v| *v),
+                Causality::Output => self.with_plant(var.name(), |plant| integer_output(var, plant)).map_err(error)?,
+                Causality::Input => None,
+            };
+            *out = value.ok_or_else(|| error(format!("{} has no value here", var.name())))?;
+        }
+        Ok(Status::Ok)
+    }
+
+    /// fmi2GetBoolean.
+    pub fn get_boolean(&self, vrs: &[u32], values: &mut [bool]) -> CallResult {
+        for (vr, out) in vrs.iter().zip(values.iter_mut()) {
+            let var = known(*vr, BooleanVariable::from_value_reference, "Boolean")?;
+            let mut settings = self.settings;
+            *out = boolean_parameter_mut(&mut settings, var).map(|v| *v).ok_or_else(|| error(format!("{} has no value here", var.name())))?;
+        }
+        Ok(Status::Ok)
+    }
+
+    /// Refuses setting a fixed parameter after initialisation.
+    fn parameter_settable(&self, name: &str) -> Result<(), super::status::Failure> {
+        if self.state == FmiState::StepComplete || self.state == FmiState::Terminated {
+            return Err(error(format!("{name} is a fixed parameter: it can only be set before fmi2ExitInitializationMode")));
+        }
+        Ok(())
+    }
+
     /// fmi2SetReal: all values are checked before any is applied.
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> CallResult {
-        let mut params = self.params;
-        let mut setpoint = self.setpoint;
+        let (mut params, mut settings, mut inputs) = (self.params, self.settings, self.inputs);
         for (vr, value) in vrs.iter().zip(values) {
-            let var = known_variable(*vr)?;
+            let var = known(*vr, RealVariable::from_value_reference, "Real")?;
             if !value.is_finite() {
                 return Err(error(format!("{} = {} refused: not a finite number", var.name(), shown(*value))));
             }
-            match var.causality() {
-                Causality::Input => {
-                    if let Some(field) = input_mut(&mut setpoint, var) {
-                        *field = *value;
-                    }
-                }
+            let field = match var.causality() {
+                Causality::Input => real_input_mut(&mut inputs, var),
                 Causality::Parameter => {
-                    if self.state == FmiState::StepComplete {
-                        return Err(error(format!(
-                            "{} is a fixed parameter: it can only be set before fmi2ExitInitializationMode",
-                            var.name()
-                        )));
-                    }
-                    if let Some(field) = parameter_mut(&mut params, var) {
-                        *field = *value;
-                    }
+                    self.parameter_settable(var.name())?;
+                    real_parameter_mut(&mut params, &mut settings, var)
                 }
-                Causality::Output => {
-                    return Err(error(format!("{} is an output and cannot be set", var.name())));
-                }
+                Causality::Output => return Err(error(format!("{} is an output and cannot be set", var.name()))),
+            };
+            if let Some(field) = field {
+                *field = *value;
             }
         }
         self.params = params;
-        self.setpoint = setpoint;
+        self.settings = settings;
+        self.inputs = inputs;
         if self.state == FmiState::StepComplete {
             Ok(self.update_excursion())
         } else {
@@ -202,14 +247,49 @@ impl Instance {
         }
     }
 
+    /// fmi2SetInteger: parameters only; all values are checked before any is applied (their
+    /// ranges at initialisation, as for Real parameters).
+    pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> CallResult {
+        let mut settings = self.settings;
+        for (vr, value) in vrs.iter().zip(values) {
+            let var = known(*vr, IntegerVariable::from_value_reference, "Integer")?;
+            if var.causality() != Causality::Parameter {
+                return Err(error(format!("{} is an output and cannot be set", var.name())));
+            }
+            self.parameter_settable(var.name())?;
+            if let Some(field) = integer_parameter_mut(&mut settings, var) {
+                *field = *value;
+            }
+        }
+        self.settings = settings;
+        Ok(Status::Ok)
+    }
+
+    /// fmi2SetBoolean: parameters only.
+    pub fn set_boolean(&mut self, vrs: &[u32], values: &[bool]) -> CallResult {
+        let mut settings = self.settings;
+        for (vr, value) in vrs.iter().zip(values) {
+            let var = known(*vr, BooleanVariable::from_value_reference, "Boolean")?;
+            self.parameter_settable(var.name())?;
+            if let Some(field) = boolean_parameter_mut(&mut settings, var) {
+                *field = *value;
+            }
+        }
+        self.settings = settings;
+        Ok(Status::Ok)
+    }
+
     /// fmi2SetRealInputDerivatives: first derivatives of the input for the next step; all
     /// values are checked before any is applied.
     pub fn set_input_derivatives(&mut self, vrs: &[u32], orders: &[i32], values: &[f64]) -> CallResult {
+        let config = self.config();
+        let single = config.as_ref().is_none_or(|c| c.is_single_module());
+        let power_input = config.as_ref().is_some_and(|c| c.power_input);
         let mut slope = self.setpoint_slope;
         let mut ignored = Vec::new();
         for ((vr, order), value) in vrs.iter().zip(orders).zip(values) {
-            let var = known_variable(*vr)?;
-            if input_mut(&mut 0.0, var).is_none() {
+            let var = known(*vr, RealVariable::from_value_reference, "Real")?;
+            if var.causality() != Causality::Input {
                 return Err(error(format!("{} is not an input: only inputs take derivatives", var.name())));
             }
             if *order < 1 {
@@ -218,8 +298,22 @@ impl Instance {
             if !value.is_finite() {
                 return Err(error(format!("d({})/dt = {} refused: not a finite number", var.name(), shown(*value))));
             }
+            let drives = match var {
+                RealVariable::PowerReference => power_input,
+                _ => !power_input,
+            };
             match (var, *order) {
-                (RealVariable::Setpoint, 1) => slope = *value,
+                (RealVariable::Setpoint, 1) if single => slope = *value,
+                (_, 1) if drives && *value != 0.0 => {
+                    return Err(error(format!(
+                        "d({})/dt = {} refused: a hub holds its inputs over a step; only a single module (nModules = 1, \
+                         belowMinimum = 0, powerInput = false, parameterSpread = 0) integrates an interpolated input",
+                        var.name(),
+                        shown(*value)
+                    )))
+                }
+                // A zero slope, or the slope of an input that does not drive the plant: exact as it is.
+                (_, 1) => {}
                 _ => ignored.push(format!("order {order} of {}", var.name())),
             }
         }
@@ -234,25 +328,39 @@ impl Instance {
         Ok(Status::Warning)
     }
 
+    /// The validated settings: the running plant's, or (before initialisation) the current
+    /// ones if they are valid.
+    fn config(&self) -> Option<PlantConfig> {
+        match &self.plant {
+            Some((config, _)) => Some(*config),
+            None => self.settings.config().ok(),
+        }
+    }
+
     /// Logs a warning when the setpoint leaves the operating window (once per excursion).
+    /// A hub's setpoint is shared out by its dispatch, so only a single module warns.
     fn update_excursion(&mut self) -> Status {
+        if !self.config().is_some_and(|c| c.is_single_module()) {
+            return Status::Ok;
+        }
         let (lo, hi) = (self.params.min_setpoint, self.params.max_setpoint);
         // Rounding noise from a master's interpolation (100.00000000000001 %) is clamped
         // silently; only a real excursion is worth a warning.
         let slack = WINDOW_TOLERANCE * lo.abs().max(hi.abs()).max(1.0);
-        let outside = self.setpoint < lo - slack || self.setpoint > hi + slack;
+        let setpoint = self.inputs.setpoint;
+        let outside = setpoint < lo - slack || setpoint > hi + slack;
         if outside && !self.excursion {
             self.excursion = true;
             self.logger.warning(&format!(
                 "setpoint = {} % is outside the operating window [{lo}, {hi}] %; the module runs at {} % until it returns",
-                self.setpoint,
-                self.params.clamp_setpoint(self.setpoint)
+                setpoint,
+                self.params.clamp_setpoint(setpoint)
             ));
             return Status::Warning;
         }
         if !outside && self.excursion {
             self.excursion = false;
-            self.logger.info(LOG_EVENTS, &format!("setpoint = {} % is back in the operating window", self.setpoint));
+            self.logger.info(LOG_EVENTS, &format!("setpoint = {setpoint} % is back in the operating window"));
         }
         Status::Ok
     }
@@ -280,12 +388,14 @@ impl Instance {
                 )));
             }
         }
-        let Some(module) = self.module.as_mut() else {
+        let Some((config, plant)) = self.plant.as_mut() else {
             return Err(error("the instance is not initialised"));
         };
-        // The input is u(t) = setpoint + slope·(t − t_c) over this step (slope 0 unless the
-        // master set a derivative at this communication point).
-        module.step_interpolated(self.setpoint, self.setpoint_slope, h).map_err(|e| error(e.to_string()))?;
+        // The setpoint is u(t) = setpoint + slope·(t − t_c) over this step (slope 0 unless the
+        // master set a derivative at this communication point); the power reference is held.
+        plant
+            .step(config, self.inputs.setpoint, self.setpoint_slope, self.inputs.power_reference, h)
+            .map_err(|e| error(e.to_string()))?;
         // Resynchronise to the master's clock: whether it sums its steps or computes t0 + n·h,
         // the FMU's time never drifts away from it.
         self.time = communication_point + h;
@@ -303,38 +413,43 @@ impl Instance {
         SavedState::new(
             self.state,
             self.params,
-            self.setpoint,
+            self.settings,
+            self.inputs,
             self.setpoint_slope,
             self.excursion,
             self.time,
             self.stop_time,
-            self.module.as_ref().map(|m| *m.state()),
+            self.plant.as_ref().map(|(_, plant)| plant.snapshot()),
         )
     }
 
-    /// Restores a copy made by [`Instance::save`] (fmi2SetFMUstate).
+    /// Restores a copy made by [`Instance::save`] (fmi2SetFMUstate); the plant is rebuilt
+    /// from the saved parameters and settings, then given the saved state.
     pub fn restore(&mut self, saved: &SavedState) -> CallResult {
-        let module = match saved.module {
-            Some(state) => {
-                let mut m = Module::new(saved.params, saved.setpoint)
-                    .map_err(|e| error(format!("the FMU state holds invalid values: {e}")))?;
-                m.restore(state);
-                Some(m)
+        let plant = match &saved.plant {
+            Some(snapshot) => {
+                let invalid = |e: String| error(format!("the FMU state holds invalid values: {e}"));
+                let config = saved.settings.config().map_err(|e| invalid(e.to_string()))?;
+                let mut plant = Plant::new(saved.params, &config, saved.inputs.setpoint, saved.inputs.power_reference)
+                    .map_err(|e| invalid(e.to_string()))?;
+                plant.restore(snapshot.clone()).map_err(invalid)?;
+                Some((config, plant))
             }
             None => None,
         };
         let initialised = matches!(saved.fmi_state, FmiState::StepComplete | FmiState::Terminated);
-        if initialised && module.is_none() {
-            return Err(error(format!("the FMU state is inconsistent: {} without a module state", saved.fmi_state)));
+        if initialised && plant.is_none() {
+            return Err(error(format!("the FMU state is inconsistent: {} without a plant state", saved.fmi_state)));
         }
         self.state = saved.fmi_state;
         self.params = saved.params;
-        self.setpoint = saved.setpoint;
+        self.settings = saved.settings;
+        self.inputs = saved.inputs;
         self.setpoint_slope = saved.setpoint_slope;
         self.excursion = saved.excursion;
         self.time = saved.time;
         self.stop_time = saved.stop_time;
-        self.module = module;
+        self.plant = plant;
         Ok(Status::Ok)
     }
 
@@ -344,6 +459,7 @@ impl Instance {
     }
 }
 
-fn known_variable(vr: u32) -> Result<RealVariable, super::status::Failure> {
-    RealVariable::from_value_reference(vr).ok_or_else(|| error(format!("unknown value reference {vr} for a Real variable")))
+/// The variable of a type with value reference `vr`, or an error naming it.
+fn known<V>(vr: u32, lookup: fn(u32) -> Option<V>, type_name: &str) -> Result<V, super::status::Failure> {
+    lookup(vr).ok_or_else(|| error(format!("unknown value reference {vr} for a{} {type_name} variable", if type_name == "Integer" { "n" } else { "" })))
 }

@@ -1,11 +1,34 @@
 //! Maps each variable of the model description to the model. The matches are exhaustive
-//! over the generated [`RealVariable`], so the XML and this code cannot drift apart.
+//! over the generated [`RealVariable`], [`IntegerVariable`] and [`BooleanVariable`], so the
+//! XML and this code cannot drift apart.
 
-use crate::model::{Module, Parameters};
-use crate::model_description::RealVariable;
+use crate::model::{OperatingState, Parameters, Plant, PlantSettings};
+use crate::model_description::{BooleanVariable, IntegerVariable, RealVariable};
 
-/// The parameter field behind `var`, or None if `var` is not a parameter.
-pub fn parameter_mut(params: &mut Parameters, var: RealVariable) -> Option<&mut f64> {
+/// The instance's input values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Inputs {
+    /// `setpoint` [%].
+    pub setpoint: f64,
+    /// `powerReference` [W].
+    pub power_reference: f64,
+}
+
+impl Default for Inputs {
+    fn default() -> Self {
+        use crate::model_description::start;
+        Inputs { setpoint: start::SETPOINT, power_reference: start::POWER_REFERENCE }
+    }
+}
+
+/// The Real parameter field behind `var`, or None if `var` is not a parameter.
+pub fn real_parameter_mut<'a>(params: &'a mut Parameters, settings: &'a mut PlantSettings, var: RealVariable) -> Option<&'a mut f64> {
+    module_parameter_mut(params, var).or_else(|| setting_mut(settings, var))
+}
+
+/// The field of a module's [`Parameters`] behind `var` (Table I and the operating window),
+/// or None if `var` is not one of them.
+pub fn module_parameter_mut(params: &mut Parameters, var: RealVariable) -> Option<&mut f64> {
     use RealVariable::*;
     match var {
         Gain => Some(&mut params.gain),
@@ -19,34 +42,97 @@ pub fn parameter_mut(params: &mut Parameters, var: RealVariable) -> Option<&mut 
         NominalCurrent => Some(&mut params.nominal_current),
         MinSetpoint => Some(&mut params.min_setpoint),
         MaxSetpoint => Some(&mut params.max_setpoint),
-        Setpoint | Current | Voltage | Power | H2Flow | Energy | H2Produced => None,
+        Hysteresis | ColdStartTime | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration
+        | ParameterSpread | Setpoint | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced
+        | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts => None,
     }
 }
 
-/// The input field behind `var` (given the instance's setpoint), or None if `var` is not an
-/// input. Exhaustive like the others, so a second input in the XML cannot alias this one.
-pub fn input_mut(setpoint: &mut f64, var: RealVariable) -> Option<&mut f64> {
+/// The Real hub setting behind `var`, or None if `var` is not one.
+fn setting_mut(settings: &mut PlantSettings, var: RealVariable) -> Option<&mut f64> {
     use RealVariable::*;
     match var {
-        Setpoint => Some(setpoint),
-        Current | Voltage | Power | H2Flow | Energy | H2Produced | Gain | TauZero | TauPole1 | TauPole2
-        | RampUpLimit | VoltageIntercept | OhmicResistance | H2Coefficient | NominalCurrent | MinSetpoint
-        | MaxSetpoint => None,
+        Hysteresis => Some(&mut settings.hysteresis),
+        ColdStartTime => Some(&mut settings.cold_start_time),
+        WarmStartTime => Some(&mut settings.warm_start_time),
+        StartPower => Some(&mut settings.start_power),
+        StandbyPower => Some(&mut settings.standby_power),
+        StandbyDuration => Some(&mut settings.standby_duration),
+        StopDuration => Some(&mut settings.stop_duration),
+        ParameterSpread => Some(&mut settings.parameter_spread),
+        Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance | H2Coefficient
+        | NominalCurrent | MinSetpoint | MaxSetpoint | Setpoint | PowerReference | Current | Voltage | Power | H2Flow
+        | Energy | H2Produced | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts => None,
     }
 }
 
-/// The value of output `var` of `module`, or None if `var` is not an output.
-pub fn output(var: RealVariable, module: &Module) -> Option<f64> {
+/// The input field behind `var`, or None if `var` is not an input.
+pub fn real_input_mut(inputs: &mut Inputs, var: RealVariable) -> Option<&mut f64> {
     use RealVariable::*;
     match var {
-        Current => Some(module.current()),
-        Voltage => Some(module.voltage()),
-        Power => Some(module.power()),
-        H2Flow => Some(module.h2_flow()),
-        Energy => Some(module.energy()),
-        H2Produced => Some(module.h2_produced()),
-        Setpoint | Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance
-        | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint => None,
+        Setpoint => Some(&mut inputs.setpoint),
+        PowerReference => Some(&mut inputs.power_reference),
+        Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy
+        | HubH2Produced | RunningHours | Starts | Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept
+        | OhmicResistance | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Hysteresis | ColdStartTime
+        | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration | ParameterSpread => None,
+    }
+}
+
+/// The value of Real output `var` of `plant`, or None if `var` is not an output.
+pub fn real_output(var: RealVariable, plant: &Plant) -> Option<f64> {
+    use RealVariable::*;
+    match var {
+        Current => Some(plant.current()),
+        Voltage => Some(plant.voltage()),
+        Power => Some(plant.power()),
+        H2Flow => Some(plant.h2_flow()),
+        Energy => Some(plant.energy()),
+        H2Produced => Some(plant.h2_produced()),
+        HubPower => Some(plant.hub_power()),
+        HubH2Flow => Some(plant.hub_h2_flow()),
+        HubH2MassFlow => Some(plant.hub_h2_mass_flow()),
+        HubEnergy => Some(plant.hub_energy()),
+        HubH2Produced => Some(plant.hub_h2_produced()),
+        RunningHours => Some(plant.running_hours()),
+        Starts => Some(plant.starts()),
+        Setpoint | PowerReference | Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept
+        | OhmicResistance | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Hysteresis | ColdStartTime
+        | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration | ParameterSpread => None,
+    }
+}
+
+/// The Integer parameter field behind `var`, or None if `var` is not a parameter.
+pub fn integer_parameter_mut(settings: &mut PlantSettings, var: IntegerVariable) -> Option<&mut i32> {
+    use IntegerVariable::*;
+    match var {
+        NModules => Some(&mut settings.n_modules),
+        Dispatch => Some(&mut settings.dispatch),
+        BelowMinimum => Some(&mut settings.below_minimum),
+        SpreadSeed => Some(&mut settings.spread_seed),
+        OperatingState | ModulesIdle | ModulesStarting | ModulesRunning | ModulesStandby | ModulesStopping => None,
+    }
+}
+
+/// The value of Integer output `var` of `plant`, or None if `var` is not an output.
+pub fn integer_output(var: IntegerVariable, plant: &Plant) -> Option<i32> {
+    use IntegerVariable as V;
+    use OperatingState::*;
+    match var {
+        V::OperatingState => Some(plant.state().code()),
+        V::ModulesIdle => Some(plant.count_in(Idle)),
+        V::ModulesStarting => Some(plant.count_in(Curve)),
+        V::ModulesRunning => Some(plant.count_in(Steady)),
+        V::ModulesStandby => Some(plant.count_in(Standby)),
+        V::ModulesStopping => Some(plant.count_in(Blowdown)),
+        V::NModules | V::Dispatch | V::BelowMinimum | V::SpreadSeed => None,
+    }
+}
+
+/// The Boolean parameter field behind `var`, or None if `var` is not a parameter.
+pub fn boolean_parameter_mut(settings: &mut PlantSettings, var: BooleanVariable) -> Option<&mut bool> {
+    match var {
+        BooleanVariable::PowerInput => Some(&mut settings.power_input),
     }
 }
 
@@ -56,17 +142,32 @@ mod tests {
     use crate::model_description::Causality;
 
     #[test]
-    fn every_variable_of_the_xml_maps_to_exactly_one_role() {
-        let m = Module::new(Parameters::default(), 100.0).unwrap();
+    fn every_variable_of_the_xml_maps_to_exactly_one_role_and_its_start_value() {
+        let defaults = PlantSettings::default();
+        let plant = Plant::new(Parameters::default(), &defaults.config().unwrap(), 100.0, 0.0).unwrap();
         for var in RealVariable::ALL {
-            let mut p = Parameters::default();
-            let is_param = parameter_mut(&mut p, var).is_some();
-            assert_eq!(is_param, var.causality() == Causality::Parameter, "{var:?}");
-            assert_eq!(output(var, &m).is_some(), var.causality() == Causality::Output, "{var:?}");
-            assert_eq!(input_mut(&mut 0.0, var).is_some(), var.causality() == Causality::Input, "{var:?}");
-            if is_param {
-                assert_eq!(parameter_mut(&mut p, var).map(|v| *v), var.start(), "{var:?}");
+            let (mut p, mut s, mut i) = (Parameters::default(), defaults, Inputs::default());
+            let param = real_parameter_mut(&mut p, &mut s, var).map(|v| *v);
+            assert_eq!(param.is_some(), var.causality() == Causality::Parameter, "{var:?}");
+            assert_eq!(real_output(var, &plant).is_some(), var.causality() == Causality::Output, "{var:?}");
+            let input = real_input_mut(&mut i, var).map(|v| *v);
+            assert_eq!(input.is_some(), var.causality() == Causality::Input, "{var:?}");
+            if var.causality() != Causality::Output {
+                assert_eq!(param.or(input), var.start(), "{var:?}: the model's default is the XML's start");
             }
+        }
+        for var in IntegerVariable::ALL {
+            let mut s = defaults;
+            let param = integer_parameter_mut(&mut s, var).map(|v| *v);
+            assert_eq!(param.is_some(), var.causality() == Causality::Parameter, "{var:?}");
+            assert_eq!(integer_output(var, &plant).is_some(), var.causality() == Causality::Output, "{var:?}");
+            assert_eq!(param, var.start(), "{var:?}");
+        }
+        for var in BooleanVariable::ALL {
+            let mut s = defaults;
+            let param = boolean_parameter_mut(&mut s, var).map(|v| *v);
+            assert_eq!(param.is_some(), var.causality() == Causality::Parameter, "{var:?}");
+            assert_eq!(param, var.start(), "{var:?}");
         }
     }
 }

@@ -19,55 +19,41 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::model::Parameters;
-use crate::model_description::{Causality, RealVariable};
+use crate::fmi2::variables::module_parameter_mut;
+use crate::model_description::RealVariable;
 
 use super::error::{Error, Result};
 
-/// The FMU's parameters: (name, unit) in model-description order.
+/// The FMU's module parameters (Table I and the operating window; not the hub's settings):
+/// (name, unit) in model-description order.
 pub fn fmu_parameters() -> Vec<(&'static str, &'static str)> {
     RealVariable::ALL
         .iter()
-        .filter(|v| v.causality() == Causality::Parameter)
+        .filter(|v| module_parameter_mut(&mut Parameters::default(), **v).is_some())
         .map(|v| (v.name(), v.unit()))
         .collect()
 }
 
-/// Value of the parameter called `name` (model-description name).
-pub fn get(p: &Parameters, name: &str) -> Option<f64> {
-    Some(match name {
-        "gain" => p.gain,
-        "tauZero" => p.tau_zero,
-        "tauPole1" => p.tau_pole1,
-        "tauPole2" => p.tau_pole2,
-        "rampUpLimit" => p.ramp_up_limit,
-        "voltageIntercept" => p.voltage_intercept,
-        "ohmicResistance" => p.ohmic_resistance,
-        "h2Coefficient" => p.h2_coefficient,
-        "nominalCurrent" => p.nominal_current,
-        "minSetpoint" => p.min_setpoint,
-        "maxSetpoint" => p.max_setpoint,
-        _ => return None,
-    })
+/// The module parameter called `name` (model-description name).
+fn field<'a>(p: &'a mut Parameters, name: &str) -> Option<&'a mut f64> {
+    RealVariable::ALL.into_iter().find(|v| v.name() == name).and_then(|v| module_parameter_mut(p, v))
 }
 
-/// Sets the parameter called `name`; false for an unknown name.
+/// Value of the module parameter called `name` (model-description name).
+pub fn get(p: &Parameters, name: &str) -> Option<f64> {
+    let mut p = *p;
+    field(&mut p, name).map(|v| *v)
+}
+
+/// Sets the module parameter called `name`; false for an unknown name.
 pub fn set(p: &mut Parameters, name: &str, value: f64) -> bool {
-    let slot = match name {
-        "gain" => &mut p.gain,
-        "tauZero" => &mut p.tau_zero,
-        "tauPole1" => &mut p.tau_pole1,
-        "tauPole2" => &mut p.tau_pole2,
-        "rampUpLimit" => &mut p.ramp_up_limit,
-        "voltageIntercept" => &mut p.voltage_intercept,
-        "ohmicResistance" => &mut p.ohmic_resistance,
-        "h2Coefficient" => &mut p.h2_coefficient,
-        "nominalCurrent" => &mut p.nominal_current,
-        "minSetpoint" => &mut p.min_setpoint,
-        "maxSetpoint" => &mut p.max_setpoint,
-        _ => return false,
-    };
-    *slot = value;
-    true
+    match field(p, name) {
+        Some(slot) => {
+            *slot = value;
+            true
+        }
+        None => false,
+    }
 }
 
 /// Where a parameter value comes from.

@@ -366,6 +366,94 @@ impl Hub {
     }
 }
 
+/// The time-varying part of a hub: with its configuration and parameter sets it determines
+/// the hub completely (for saving and restoring).
+#[derive(Clone, Debug, PartialEq)]
+pub struct HubSnapshot {
+    /// The groups.
+    pub groups: Vec<Group>,
+    /// Modules dispatched to run after the last step.
+    pub running_target: u32,
+    /// Totals since the start.
+    pub totals: HubTotals,
+}
+
+/// Every hub output at one instant, from one pass over the groups.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HubReadings {
+    /// Electric power [W].
+    pub power: f64,
+    /// Hydrogen flow c·ΣI [Nl/h].
+    pub h2_flow: f64,
+    /// Sum of stack currents [A].
+    pub current: f64,
+    /// Mean stack voltage V0 + R·I over Steady modules [V]; 0 when none is Steady.
+    pub voltage: f64,
+    /// Modules in each operating state, indexed by [`OperatingState::code`].
+    pub counts: [u32; 5],
+}
+
+impl Hub {
+    /// The time-varying state.
+    pub fn snapshot(&self) -> HubSnapshot {
+        HubSnapshot { groups: self.groups.clone(), running_target: self.running_target, totals: self.totals }
+    }
+
+    /// Restores a snapshot taken from a hub of the same configuration and parameter sets.
+    /// Refuses (changing nothing) a snapshot that cannot belong to this hub.
+    pub fn restore(&mut self, snapshot: HubSnapshot) -> Result<(), String> {
+        let kinds = self.types.len();
+        let mut per_kind = vec![0u64; kinds];
+        for g in &snapshot.groups {
+            let u = &g.unit;
+            let c = &u.current;
+            if g.count == 0 || g.kind as usize >= kinds {
+                return Err(format!("a group has count {} and parameter set {} of {kinds}", g.count, g.kind));
+            }
+            if ![u.timer, c.current, c.z1, c.z2, g.running].iter().all(|x| x.is_finite()) || u.timer < 0.0 || g.running < 0.0 {
+                return Err("a group holds a non-finite or negative value".into());
+            }
+            per_kind[g.kind as usize] += g.count as u64;
+        }
+        let expected = if kinds == 1 { self.config.n_modules as u64 } else { 1 };
+        if per_kind.iter().any(|&n| n != expected) {
+            return Err(format!("the groups do not hold exactly the hub's {} modules", self.config.n_modules));
+        }
+        let t = &snapshot.totals;
+        if ![t.time, t.energy, t.h2_produced, t.running].iter().all(|x| x.is_finite()) || snapshot.running_target > self.config.n_modules {
+            return Err("the hub's totals or dispatch target are out of range".into());
+        }
+        self.groups = snapshot.groups;
+        self.running_target = snapshot.running_target;
+        self.totals = snapshot.totals;
+        Ok(())
+    }
+
+    /// All outputs in one pass over the groups.
+    pub fn readings(&self) -> HubReadings {
+        let op = &self.config.operation;
+        let mut r = HubReadings::default();
+        let (mut voltage_sum, mut steady) = (0.0, 0u64);
+        for g in &self.groups {
+            let p = &self.types[g.kind as usize].params;
+            let c = g.count as f64;
+            let i = g.unit.stack_current();
+            r.power += c * g.unit.power(p, op);
+            r.h2_flow += c * p.h2_coefficient * i;
+            r.current += c * i;
+            r.counts[g.unit.state.code() as usize] += g.count;
+            if g.unit.state == OperatingState::Steady {
+                voltage_sum += c * (p.voltage_intercept + p.ohmic_resistance * i);
+                steady += g.count as u64;
+            }
+        }
+        if steady > 0 {
+            r.voltage = voltage_sum / steady as f64;
+        }
+        r
+    }
+}
+
 /// Refuses configurations that cannot work; the message names the value.
 pub fn validate(config: &HubConfig) -> Result<(), ParameterError> {
     config.operation.validate()?;

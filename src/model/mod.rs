@@ -6,6 +6,7 @@
 //! - [`hub`]: N modules simulated as groups; [`dispatch`]: who runs at which setpoint.
 //! - [`spread`]: seeded per-module parameter sets.
 //! - [`operation`]: a module's operating states (idle, curve, steady, standby, blowdown).
+//! - [`plant`]: what an FMU instance simulates: one module or a hub, with its settings.
 
 pub mod dispatch;
 pub mod dynamics;
@@ -13,6 +14,7 @@ pub mod hub;
 pub mod module;
 pub mod operation;
 pub mod parameters;
+pub mod plant;
 pub mod spread;
 mod roots;
 
@@ -22,6 +24,7 @@ pub use parameters::{ParameterError, Parameters};
 pub use dispatch::{Demand, DispatchPolicy};
 pub use hub::{Hub, HubConfig};
 pub use operation::{BelowMinimum, OperatingState, OperationParameters};
+pub use plant::{Plant, PlantConfig, PlantSettings, PlantSnapshot};
 
 /// A number for messages: plain where that is short, scientific otherwise (1e306, not 307 digits).
 pub fn shown(x: f64) -> String {

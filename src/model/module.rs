@@ -38,6 +38,8 @@ pub enum StepError {
     NonFiniteSlope(f64),
     /// The step size [s] is not a finite positive number.
     InvalidStepSize(f64),
+    /// A hub was given a setpoint slope [%/s]: only a single module integrates one.
+    SlopeNotSupported(f64),
     /// A step of this size [s] would take the totals past the largest representable number.
     Overflow(f64),
 }
@@ -48,6 +50,11 @@ impl fmt::Display for StepError {
             StepError::NonFiniteSetpoint(v) => write!(f, "setpoint = {} % is not a finite number", shown(*v)),
             StepError::NonFiniteSlope(v) => write!(f, "setpoint slope = {} %/s is not a finite number", shown(*v)),
             StepError::InvalidStepSize(h) => write!(f, "step size = {} s must be finite and > 0", shown(*h)),
+            StepError::SlopeNotSupported(v) => write!(
+                f,
+                "setpoint slope = {} %/s: a hub holds its inputs over a step (only a single module integrates a slope)",
+                shown(*v)
+            ),
             StepError::Overflow(h) => write!(f, "a step of {} s would overflow the energy or hydrogen totals", shown(*h)),
         }
     }

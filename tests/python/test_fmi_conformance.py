@@ -20,6 +20,7 @@ import random
 import struct
 import subprocess
 import sys
+import re
 import zipfile
 import zlib
 from ctypes import byref, c_char_p, c_double, c_int, c_uint, create_string_buffer
@@ -60,7 +61,7 @@ OUTPUT_NAMES = ("current", "voltage", "power", "h2Flow", "energy", "h2Produced")
 OUTPUT_VRS = (1, 2, 3, 4, 5, 6)
 PARAMETER_NAMES = tuple(PAPER)
 PARAMETER_VRS = tuple(range(100, 111))
-UNKNOWN_VRS = (7, 99, 2**32 - 1)
+UNKNOWN_VRS = (19, 99, 2**32 - 1)
 
 #: Setpoint [%] at initialisation (inside the operating window [60, 100] %).
 INITIAL_SETPOINT = 80.0
@@ -84,12 +85,14 @@ FMI2_CS_FUNCTIONS = (
 
 FMUTOOL = Path(sys.executable).with_name("fmutool")
 
-# Serialised FMU state (src/fmi2/fmu_state.rs): magic(8) version(4) payload length(4) payload crc32(4);
-# payload = GUID length(4) GUID, FMI state code(1), excursion, module and stop-time flags (1 each),
-# 21 f64.
+# Serialised FMU state (src/fmi2/fmu_state.rs, format 4): magic(8) version(4) payload length(4)
+# payload crc32(4); payload = GUID length(4) GUID, FMI state code, excursion and stop-time flags
+# (1 each), 11 f64 parameters (gain first), 4 u32 and 1 u8 hub settings, 8 f64 hub settings,
+# 5 f64 (setpoint, powerReference, setpoint slope, time, stop time), plant kind (1), and for a
+# single module 6 f64.
 STATE_MAGIC, STATE_VERSION, STATE_LENGTH, STATE_PAYLOAD = 0, 8, 12, 16
-STATE_FLAGS = 4
-STATE_REALS = 21
+STATE_FLAGS = 3
+STATE_AFTER_PARAMETERS = 8 * 11 + 4 * 4 + 1 + 8 * 8 + 8 * 5 + 1 + 8 * 6
 
 # Life-cycle test.
 CYCLES = 1000
@@ -241,9 +244,14 @@ def test_fmutool_check_reports_compliance(fmu_path):
 
 
 def test_every_variable_has_a_declared_unit(model_description):
-    """Every variable carries a unit (and display unit) defined in <UnitDefinitions> (section 2.2.2)."""
+    """Every Real variable carries a unit (and display unit) defined in <UnitDefinitions>
+    (section 2.2.2); Integer and Boolean variables, which FMI 2.0 gives no unit attribute, end
+    their description with the unit in brackets."""
     units = {u.name: u for u in model_description.unitDefinitions}
     for v in model_description.modelVariables:
+        if v.type != "Real":
+            assert re.search(r"\[[^\]]+\]$", v.description or ""), f"{v.name}: description must end with [unit]"
+            continue
         assert v.unit, f"{v.name} has no unit"
         assert v.unit in units, f"{v.name}: unit {v.unit!r} is not in UnitDefinitions"
         if v.displayUnit:
@@ -440,7 +448,7 @@ CORRUPTIONS = {
     "flip-length": (_flipped(lambda n, g: STATE_LENGTH), ("announces",)),
     "flip-guid": (_flipped(lambda n, g: STATE_PAYLOAD + 4 + 3), ("checksum",)),
     "flip-fmi-state": (_flipped(lambda n, g: STATE_PAYLOAD + 4 + g), ("checksum",)),
-    "flip-real": (_flipped(lambda n, g: STATE_PAYLOAD + 4 + g + STATE_FLAGS + 8 * 16 + 3), ("checksum",)),
+    "flip-real": (_flipped(lambda n, g: STATE_PAYLOAD + 4 + g + STATE_FLAGS + 8 * 6 + 3), ("checksum",)),
     "flip-crc": (_flipped(lambda n, g: n - 1), ("checksum",)),
     "truncated-to-empty": (lambda blob, g: b"", ("truncated",)),
     "truncated-header": (lambda blob, g: blob[:10], ("truncated",)),
@@ -451,8 +459,8 @@ CORRUPTIONS = {
     "other-guid": (_resealed(_other_guid), ("GUID",)),
     "unknown-fmi-state": (_resealed(_set_byte(0, 3)), ("FMI state",)),
     "invalid-flag": (_resealed(_set_byte(1, 7)), ("flag",)),
-    "nan-real": (_resealed(_set_real(16, math.nan)), ("non-finite",)),
-    "invalid-parameter": (_resealed(_set_real(2, 0.0)), ("gain",)),  # gain = 0
+    "nan-real": (_resealed(_set_real(3, math.nan)), ("non-finite",)),
+    "invalid-parameter": (_resealed(_set_real(0, 0.0)), ("gain",)),  # gain = 0
 }
 
 
@@ -468,7 +476,7 @@ def test_corrupt_serialized_state_is_refused_and_changes_nothing(driver, model_d
     existing = probe.fmu.getFMUstate()
     good = probe.fmu.serializeFMUstate(existing)
     guid_length = len(model_description.guid)
-    assert len(good) == STATE_PAYLOAD + 4 + guid_length + STATE_FLAGS + 8 * STATE_REALS + 4, "layout assumed here is outdated"
+    assert len(good) == STATE_PAYLOAD + 4 + guid_length + STATE_FLAGS + STATE_AFTER_PARAMETERS + 4, "layout assumed here is outdated"
     bad = corrupt(good, guid_length)
     assert bad != good
 
@@ -555,7 +563,7 @@ def test_reset_returns_to_the_state_after_instantiate(driver, model_description)
     assert status_of(lambda: d.fmu.getReal([VR_CURRENT])) == FMI_ERROR, "not back in the instantiated state"
     d.fmu.setupExperiment(startTime=0.0)
     d.fmu.enterInitializationMode()
-    start = {v.name: float(v.start) for v in model_description.modelVariables if v.start is not None}
+    start = {v.name: float(v.start) for v in model_description.modelVariables if v.start is not None and v.type == "Real"}
     assert d.get(*PARAMETER_NAMES) == [start[n] for n in PARAMETER_NAMES]
     assert d.get("setpoint") == start["setpoint"]
     d.set(setpoint=INITIAL_SETPOINT)
@@ -754,8 +762,8 @@ BAD_CALLS = [
     *[BadCall(f"get-unknown-vr-{vr}", S, get_real(vr), words=("fmi2GetReal", f"value reference {vr}")) for vr in UNKNOWN_VRS],
     *[BadCall(f"set-unknown-vr-{vr}", S, set_real([vr], [1.0]), words=("fmi2SetReal", f"value reference {vr}"))
       for vr in UNKNOWN_VRS],
-    BadCall("get-known-then-unknown", S, get_real(VR_CURRENT, 7), words=("value reference 7",)),
-    BadCall("set-setpoint-then-unknown", S, set_real([VR_SETPOINT, 7], [90.0, 1.0]), words=("value reference 7",)),
+    BadCall("get-known-then-unknown", S, get_real(VR_CURRENT, 19), words=("value reference 19",)),
+    BadCall("set-setpoint-then-unknown", S, set_real([VR_SETPOINT, 19], [90.0, 1.0]), words=("value reference 19",)),
     BadCall("set-setpoint-then-output", S, set_real([VR_SETPOINT, VR_CURRENT], [90.0, 1.0]), words=("current", "output")),
     *[BadCall(f"set-output-{vr}", S, set_real([vr], [1.0]), words=("fmi2SetReal", "output")) for vr in OUTPUT_VRS],
     BadCall("set-output-init", INITIALIZATION, set_real([VR_CURRENT], [1.0]), words=("current", "output")),

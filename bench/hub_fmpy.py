@@ -1,0 +1,57 @@
+"""Benchmark: one day at 1 s of a 25 000-module `equal` hub following a wind-like power
+reference through fmpy (FMU2Slave: setReal, doStep, getReal every second), as issue 4 asks.
+Prints wall seconds per simulated day. Run by scripts/bench.sh after packaging the FMU."""
+import time
+from pathlib import Path
+
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+ROOT = Path(__file__).resolve().parents[1]
+FMU = ROOT / "target" / "fmu" / "AemElectrolyser.fmu"
+DAY, MODULES = 86_400, 25_000
+
+
+def wind_reference(n, rated, seed=42):
+    """Mean-reverting random walk between 5 % and 100 % of `rated` [W] (like bench/hub.rs)."""
+    rng = np.random.default_rng(seed)
+    x, out = 0.6, np.empty(n)
+    steps = rng.random(n) - 0.5
+    for k in range(n):
+        x = min(max(x + 0.001 * (0.6 - x) + 0.01 * steps[k], 0.05), 1.0)
+        out[k] = x * rated
+    return out
+
+
+def main():
+    md = read_model_description(str(FMU))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    unzipped = extract(str(FMU))
+    i_rated = 0.534 * 100.0
+    reference = wind_reference(DAY, MODULES * (35.75 + 0.1529 * i_rated) * i_rated)
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="bench")
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.setInteger([vr["nModules"], vr["belowMinimum"]], [MODULES, 1])
+    fmu.setBoolean([vr["powerInput"]], [True])
+    fmu.setReal([vr["powerReference"]], [float(reference[0])])
+    fmu.enterInitializationMode()
+    fmu.exitInitializationMode()
+    ref_vr, out_vr = [vr["powerReference"]], [vr["hubPower"]]
+    start = time.perf_counter()
+    t, energy = 0.0, 0.0
+    for p in reference:
+        fmu.setReal(ref_vr, [float(p)])
+        fmu.doStep(currentCommunicationPoint=t, communicationStepSize=1.0)
+        energy += fmu.getReal(out_vr)[0]
+        t += 1.0
+    seconds = time.perf_counter() - start
+    fmu.terminate()
+    fmu.freeInstance()
+    print(f"fmpy equal hub, {MODULES} modules, one day at 1 s: {seconds:.2f} s/day "
+          f"({seconds / DAY * 1e6:.1f} us per step incl. setReal/doStep/getReal), energy {energy / 3.6e9:.1f} MWh")
+
+
+if __name__ == "__main__":
+    main()

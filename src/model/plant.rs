@@ -1,0 +1,345 @@
+//! What one FMU instance simulates: a single module, or a hub of modules.
+//!
+//! [`PlantSettings`] holds the hub's settings as a user sets them (counts and codes as plain
+//! integers, checked only by [`PlantSettings::config`]). [`Plant`] is either
+//! - a [`Module`]: one module that never stops, driven by its setpoint (nModules = 1,
+//!   belowMinimum = 0, powerInput = false, parameterSpread = 0): the paper's model, which
+//!   also integrates a linearly interpolated setpoint exactly; or
+//! - a [`Hub`]: everything else (operating states, dispatch, power reference, spread).
+//!
+//! Module outputs of a hub are per-module means: I = ΣI/N [A], P = P_hub/N [W],
+//! F = F_hub/N [Nl/h], E = E_hub/N [J], H = H_hub/N [Nl]; V is the mean of V0 + R·I over
+//! the modules carrying current [V] (0 when none does).
+
+use super::dispatch::{Demand, DispatchPolicy};
+use super::hub::{Hub, HubConfig, HubReadings, HubSnapshot, H2_KG_PER_NL};
+use super::module::{Module, ModuleState, StepError};
+use super::operation::{BelowMinimum, OperatingState, OperationParameters};
+use super::parameters::{ParameterError, Parameters};
+use super::spread::spread_parameters;
+
+const SECONDS_PER_HOUR: f64 = 3600.0;
+
+/// Most modules with individual parameter sets (parameterSpread > 0): each set costs memory.
+pub const MAX_INDIVIDUAL_MODULES: i32 = 1_000_000;
+
+/// Hub settings as set through the FMU, before validation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlantSettings {
+    /// nModules [1].
+    pub n_modules: i32,
+    /// dispatch: 1 equal, 2 sequential, 3 rotation.
+    pub dispatch: i32,
+    /// belowMinimum: 0 stay at minimum, 1 standby, 2 off.
+    pub below_minimum: i32,
+    /// powerInput: the power reference drives the hub.
+    pub power_input: bool,
+    /// hysteresis [%].
+    pub hysteresis: f64,
+    /// coldStartTime [s].
+    pub cold_start_time: f64,
+    /// warmStartTime [s].
+    pub warm_start_time: f64,
+    /// startPower [W].
+    pub start_power: f64,
+    /// standbyPower [W].
+    pub standby_power: f64,
+    /// standbyDuration [s].
+    pub standby_duration: f64,
+    /// stopDuration [s].
+    pub stop_duration: f64,
+    /// parameterSpread [1]: relative half-width of the uniform per-module spread.
+    pub parameter_spread: f64,
+    /// spreadSeed [1].
+    pub spread_seed: i32,
+}
+
+impl Default for PlantSettings {
+    /// The model description's start values: one module that never stops.
+    fn default() -> Self {
+        use crate::model_description::start;
+        PlantSettings {
+            n_modules: start::N_MODULES,
+            dispatch: start::DISPATCH,
+            below_minimum: start::BELOW_MINIMUM,
+            power_input: start::POWER_INPUT,
+            hysteresis: start::HYSTERESIS,
+            cold_start_time: start::COLD_START_TIME,
+            warm_start_time: start::WARM_START_TIME,
+            start_power: start::START_POWER,
+            standby_power: start::STANDBY_POWER,
+            standby_duration: start::STANDBY_DURATION,
+            stop_duration: start::STOP_DURATION,
+            parameter_spread: start::PARAMETER_SPREAD,
+            spread_seed: start::SPREAD_SEED,
+        }
+    }
+}
+
+/// Validated settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlantConfig {
+    /// The hub's configuration.
+    pub hub: HubConfig,
+    /// The power reference drives the hub.
+    pub power_input: bool,
+    /// Relative spread of per-module parameters (0: identical modules).
+    pub parameter_spread: f64,
+    /// Seed of the spread.
+    pub spread_seed: u64,
+}
+
+impl PlantSettings {
+    /// The validated configuration; the error names the first bad value.
+    pub fn config(&self) -> Result<PlantConfig, ParameterError> {
+        if self.n_modules < 1 {
+            return Err(ParameterError { name: "nModules", value: self.n_modules as f64, requirement: "must be >= 1".into() });
+        }
+        let spread = self.parameter_spread;
+        if !(spread.is_finite() && (0.0..=0.5).contains(&spread)) {
+            return Err(ParameterError { name: "parameterSpread", value: spread, requirement: "must be within [0, 0.5]".into() });
+        }
+        if spread > 0.0 && self.n_modules > MAX_INDIVIDUAL_MODULES {
+            return Err(ParameterError {
+                name: "nModules",
+                value: self.n_modules as f64,
+                requirement: format!("must be <= {MAX_INDIVIDUAL_MODULES} when parameterSpread > 0 (one parameter set per module)"),
+            });
+        }
+        let hub = HubConfig {
+            n_modules: self.n_modules as u32,
+            policy: DispatchPolicy::from_code(self.dispatch as i64)?,
+            hysteresis: self.hysteresis,
+            operation: OperationParameters {
+                cold_start_time: self.cold_start_time,
+                warm_start_time: self.warm_start_time,
+                start_power: self.start_power,
+                standby_power: self.standby_power,
+                standby_duration: self.standby_duration,
+                stop_duration: self.stop_duration,
+                below_minimum: BelowMinimum::from_code(self.below_minimum as i64)?,
+            },
+        };
+        super::hub::validate(&hub)?;
+        Ok(PlantConfig { hub, power_input: self.power_input, parameter_spread: spread, spread_seed: self.spread_seed as u32 as u64 })
+    }
+}
+
+impl PlantConfig {
+    /// One module that never stops, driven by its setpoint: the paper's model, simulated by
+    /// [`Module`] (which also takes an interpolated setpoint).
+    pub fn is_single_module(&self) -> bool {
+        self.hub.n_modules == 1
+            && self.hub.operation.below_minimum == BelowMinimum::Minimum
+            && !self.power_input
+            && self.parameter_spread == 0.0
+    }
+
+    /// The hub's demand for these inputs.
+    pub fn demand(&self, setpoint: f64, power_reference: f64) -> Demand {
+        if self.power_input {
+            Demand::Power(power_reference)
+        } else {
+            Demand::Setpoint(setpoint)
+        }
+    }
+}
+
+/// The time-varying state of a plant, for saving and restoring.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PlantSnapshot {
+    /// A single module's state.
+    Module(ModuleState),
+    /// A hub's state.
+    Hub(HubSnapshot),
+}
+
+/// A single module or a hub, with the hub's outputs cached after every change.
+#[derive(Clone, Debug)]
+pub enum Plant {
+    /// One module that never stops.
+    Module(Module),
+    /// A hub, and its outputs now.
+    Hub(Box<Hub>, HubReadings),
+}
+
+impl Plant {
+    /// A plant in steady state for the inputs at t = 0 (running modules in steady state at
+    /// their dispatched setpoint, the others off).
+    pub fn new(params: Parameters, config: &PlantConfig, setpoint: f64, power_reference: f64) -> Result<Self, ParameterError> {
+        if config.is_single_module() {
+            return Ok(Plant::Module(Module::new(params, setpoint)?));
+        }
+        let demand = config.demand(setpoint, power_reference);
+        let hub = if config.parameter_spread > 0.0 {
+            params.validate()?;
+            let n = config.hub.n_modules as usize;
+            Hub::with_parameter_sets(spread_parameters(&params, n, config.parameter_spread, config.spread_seed), config.hub, demand)?
+        } else {
+            Hub::new(params, config.hub, demand)?
+        };
+        let readings = hub.readings();
+        Ok(Plant::Hub(Box::new(hub), readings))
+    }
+
+    /// Whether the plant integrates a setpoint slope (only a single module does).
+    pub fn takes_setpoint_slope(&self) -> bool {
+        matches!(self, Plant::Module(_))
+    }
+
+    /// Advances by `h` seconds: the setpoint is `setpoint + slope·t` over the step [%] (a
+    /// hub takes slope 0 only), the power reference is held [W]. Refused requests leave the
+    /// plant unchanged.
+    pub fn step(&mut self, config: &PlantConfig, setpoint: f64, slope: f64, power_reference: f64, h: f64) -> Result<(), StepError> {
+        match self {
+            Plant::Module(m) => m.step_interpolated(setpoint, slope, h).map(|_| ()),
+            Plant::Hub(hub, readings) => {
+                if slope != 0.0 {
+                    return Err(StepError::SlopeNotSupported(slope));
+                }
+                hub.step(config.demand(setpoint, power_reference), h)?;
+                *readings = hub.readings();
+                Ok(())
+            }
+        }
+    }
+
+    /// The time-varying state.
+    pub fn snapshot(&self) -> PlantSnapshot {
+        match self {
+            Plant::Module(m) => PlantSnapshot::Module(*m.state()),
+            Plant::Hub(hub, _) => PlantSnapshot::Hub(hub.snapshot()),
+        }
+    }
+
+    /// Restores a snapshot of a plant built with the same parameters and configuration;
+    /// refuses (changing nothing) one of the other kind or out of range.
+    pub fn restore(&mut self, snapshot: PlantSnapshot) -> Result<(), String> {
+        match (self, snapshot) {
+            (Plant::Module(m), PlantSnapshot::Module(state)) => {
+                m.restore(state);
+                Ok(())
+            }
+            (Plant::Hub(hub, readings), PlantSnapshot::Hub(s)) => {
+                hub.restore(s)?;
+                *readings = hub.readings();
+                Ok(())
+            }
+            _ => Err("the state belongs to a plant of another kind (single module or hub)".into()),
+        }
+    }
+
+    fn modules(&self) -> f64 {
+        match self {
+            Plant::Module(_) => 1.0,
+            Plant::Hub(hub, _) => hub.config().n_modules as f64,
+        }
+    }
+
+    /// Stack current per module [A].
+    pub fn current(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.current(),
+            Plant::Hub(_, r) => r.current / self.modules(),
+        }
+    }
+
+    /// Stack voltage [V] (hub: mean over the modules carrying current).
+    pub fn voltage(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.voltage(),
+            Plant::Hub(_, r) => r.voltage,
+        }
+    }
+
+    /// Electric power per module [W].
+    pub fn power(&self) -> f64 {
+        self.hub_power() / self.modules()
+    }
+
+    /// Hydrogen flow per module [Nl/h].
+    pub fn h2_flow(&self) -> f64 {
+        self.hub_h2_flow() / self.modules()
+    }
+
+    /// Energy per module since the start [J].
+    pub fn energy(&self) -> f64 {
+        self.hub_energy() / self.modules()
+    }
+
+    /// Hydrogen per module since the start [Nl].
+    pub fn h2_produced(&self) -> f64 {
+        self.hub_h2_produced() / self.modules()
+    }
+
+    /// Electric power of the plant [W].
+    pub fn hub_power(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.power(),
+            Plant::Hub(_, r) => r.power,
+        }
+    }
+
+    /// Hydrogen flow of the plant [Nl/h].
+    pub fn hub_h2_flow(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.h2_flow(),
+            Plant::Hub(_, r) => r.h2_flow,
+        }
+    }
+
+    /// Hydrogen flow of the plant by mass [kg/h].
+    pub fn hub_h2_mass_flow(&self) -> f64 {
+        self.hub_h2_flow() * H2_KG_PER_NL
+    }
+
+    /// Energy of the plant since the start [J].
+    pub fn hub_energy(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.energy(),
+            Plant::Hub(hub, _) => hub.totals().energy,
+        }
+    }
+
+    /// Hydrogen of the plant since the start [Nl].
+    pub fn hub_h2_produced(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.h2_produced(),
+            Plant::Hub(hub, _) => hub.totals().h2_produced,
+        }
+    }
+
+    /// Running time summed over modules since the start [h].
+    pub fn running_hours(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.time() / SECONDS_PER_HOUR,
+            Plant::Hub(hub, _) => hub.totals().running / SECONDS_PER_HOUR,
+        }
+    }
+
+    /// Start-ups summed over modules since the start (a single module never stops) [1].
+    pub fn starts(&self) -> f64 {
+        match self {
+            Plant::Module(_) => 0.0,
+            Plant::Hub(hub, _) => hub.totals().starts as f64,
+        }
+    }
+
+    /// Modules in `state` [1].
+    pub fn count_in(&self, state: OperatingState) -> i32 {
+        let count = match self {
+            Plant::Module(_) => (state == OperatingState::Steady) as u32,
+            Plant::Hub(_, r) => r.counts[state.code() as usize],
+        };
+        count as i32
+    }
+
+    /// The most active state of any module: Steady, else Curve, Standby, Blowdown, Idle.
+    pub fn state(&self) -> OperatingState {
+        use OperatingState::*;
+        [Steady, Curve, Standby, Blowdown].into_iter().find(|&s| self.count_in(s) > 0).unwrap_or(Idle)
+    }
+}
+
+#[cfg(test)]
+mod tests;
