@@ -154,8 +154,8 @@ def run(fmu=DEFAULT_FMU, duration=60.0, gust_start=10.0, exchange=0.1, out=None,
     if verbose:
         for name, o in cases.items():
             exch = o["vsc_wind"] - o["vsc_hub"]
-            print(f"{name:>12}: max |grid exchange| {np.abs(exch).max() / 1e6:6.2f} MW, "
-                  f"max |frequency deviation| {1e3 * np.abs(o['df']).max():8.4f} mHz, "
+            print(f"{name:>12}: hub {o['vsc_hub'][0] / 1e6:.2f} MW at t = 0, max |grid exchange| "
+                  f"{np.abs(exch).max() / 1e6:6.2f} MW, max |frequency deviation| {1e3 * np.abs(o['df']).max():.3g} mHz, "
                   f"voltage {o['v'].min():.5f}…{o['v'].max():.5f} pu")
     if out is not None:
         out = Path(out)

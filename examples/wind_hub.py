@@ -105,6 +105,7 @@ def plot(path, t, wind, runs, n_modules, rating):
         ax[1].plot(tm, (wind - o["hubPower"]) / 1e6, color=colors[d], lw=1, label=d)
     ax[0].axhline(n_modules * rating[1] / 1e6, color="k", ls=":", lw=0.8, label="hub at 100 %")
     ax[0].axhline(n_modules * rating[0] / 1e6, color="k", ls="--", lw=0.8, label="all modules at 60 %")
+    ax[0].set_ylim(bottom=20)  # room for the legend
     ax[0].set_ylabel("power [MW]")
     ax[0].legend(fontsize=7, ncol=3, loc="lower right")
     ax[1].axhline(0, color="k", lw=0.5)
