@@ -298,7 +298,10 @@ impl Hub {
     }
 
     /// Switches modules on or off until `target` modules are dispatched to run, preferring
-    /// (to start) warm Standby over Idle over Blowdown, (to stop) Curve over Steady; under
+    /// (to start) warm Standby over Idle over Blowdown, (to stop) Steady over Curve (a running
+    /// module stops to warm standby and the others take its share, while an abandoned start
+    /// would be lost: a demand that dips faster than a cold start would otherwise never let
+    /// a start complete); under
     /// `Rotation`, fewest running hours then starts first (to stop: most). Ties are broken by
     /// state contents, never by position, so the choice does not depend on grouping.
     fn rebalance(&mut self, target: u32) {
@@ -516,7 +519,7 @@ fn state_rank(s: OperatingState, starting: bool) -> u8 {
         (true, Standby) => 0,
         (true, Idle) => 1,
         (true, _) => 2,
-        (false, Curve) => 0,
+        (false, Steady) => 0,
         (false, _) => 1,
     }
 }
