@@ -39,6 +39,7 @@ enum Type {
     Real,
     Integer,
     Boolean,
+    String,
 }
 
 impl Type {
@@ -47,6 +48,7 @@ impl Type {
             Type::Real => "Real",
             Type::Integer => "Integer",
             Type::Boolean => "Boolean",
+            Type::String => "String",
         }
     }
     fn rust(self) -> &'static str {
@@ -54,6 +56,7 @@ impl Type {
             Type::Real => "f64",
             Type::Integer => "i32",
             Type::Boolean => "bool",
+            Type::String => "&'static str",
         }
     }
 }
@@ -105,10 +108,10 @@ fn generate(text: &str) -> Result<String, String> {
             .and_then(|v| v.parse().ok())
             .ok_or(format!("{name}: valueReference missing or not an unsigned integer"))?;
         let element = sv.children().find(|n| n.is_element()).ok_or(format!("{name}: no type element"))?;
-        let ty = [Type::Real, Type::Integer, Type::Boolean]
+        let ty = [Type::Real, Type::Integer, Type::Boolean, Type::String]
             .into_iter()
             .find(|t| element.has_tag_name(t.element()))
-            .ok_or(format!("{name}: only Real, Integer and Boolean variables are implemented"))?;
+            .ok_or(format!("{name}: only Real, Integer, Boolean and String variables are implemented"))?;
         let unit = match ty {
             Type::Real => {
                 let unit = element.attribute("unit").ok_or(format!("{name}: every Real variable must declare a unit"))?;
@@ -117,7 +120,7 @@ fn generate(text: &str) -> Result<String, String> {
                 }
                 unit.to_string()
             }
-            Type::Integer | Type::Boolean => {
+            Type::Integer | Type::Boolean | Type::String => {
                 let description = sv.attribute("description").unwrap_or("");
                 let unit = description
                     .rfind('[')
@@ -136,6 +139,7 @@ fn generate(text: &str) -> Result<String, String> {
                     "false" | "0" => "false".into(),
                     _ => return Err(format!("{name}: start {s} is not a Boolean")),
                 },
+                Type::String => format!("{s:?}"),
             }),
         };
         if ty == Type::Integer {
@@ -226,7 +230,7 @@ fn generate(text: &str) -> Result<String, String> {
     writeln!(w, "/// Causality of a variable.").unwrap();
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]").unwrap();
     writeln!(w, "pub enum Causality {{ Input, Output, Parameter }}").unwrap();
-    for ty in [Type::Real, Type::Integer, Type::Boolean] {
+    for ty in [Type::Real, Type::Integer, Type::Boolean, Type::String] {
         let of_type: Vec<&Variable> = variables.iter().filter(|v| v.ty == ty).collect();
         variable_enum(w, ty, &of_type);
     }

@@ -11,7 +11,7 @@ use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common};
 use fmi::traits::{FmiImport, FmiStatus};
 
-use aem_electrolyser::model_description::{BooleanVariable, IntegerVariable, RealVariable, GUID, MODEL_IDENTIFIER};
+use aem_electrolyser::model_description::{BooleanVariable, IntegerVariable, RealVariable, StringVariable, GUID, MODEL_IDENTIFIER};
 
 /// Table I of the paper.
 const K: f64 = 0.534;
@@ -77,6 +77,7 @@ fn model_description_seen_by_the_fmi_crate_matches_the_generated_code() {
         .map(|v| (v.name(), v.value_reference()))
         .chain(IntegerVariable::ALL.iter().map(|v| (v.name(), v.value_reference())))
         .chain(BooleanVariable::ALL.iter().map(|v| (v.name(), v.value_reference())))
+        .chain(StringVariable::ALL.iter().map(|v| (v.name(), v.value_reference())))
         .collect();
     assert_eq!(variables.len(), generated.len());
     for sv in variables {

@@ -127,14 +127,6 @@ unsafe fn out<'a, T>(ptr: *mut T, what: &str) -> Result<&'a mut T, Failure> {
     unsafe { ptr.as_mut() }.ok_or_else(|| error(format!("{what} is a null pointer")))
 }
 
-/// Refuses any value reference of a type this FMU has no variables of.
-fn no_variables_of(type_name: &str, vrs: &[u32]) -> CallResult {
-    match vrs.first() {
-        None => Ok(Status::Ok),
-        Some(vr) => Err(error(format!("unknown value reference {vr}: this FMU has no {type_name} variables"))),
-    }
-}
-
 /// The standard's name of a status kind.
 fn kind_name(kind: fmi2StatusKind) -> String {
     match kind {
@@ -366,16 +358,19 @@ pub unsafe extern "C" fn fmi2GetBoolean(
 }
 const _: sys::fmi2GetBooleanTYPE = Some(fmi2GetBoolean);
 
-/// No String variables: only an empty request succeeds.
+/// Reads String variables; the strings stay valid until the next fmi2GetString.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetString(
     c: fmi2Component,
     vr: *const sys::fmi2ValueReference,
     nvr: usize,
-    _value: *mut fmi2String,
+    value: *mut fmi2String,
 ) -> fmi2Status {
-    // SAFETY: the importer passes nvr value references.
-    guard(c, Call::GetString, |_| no_variables_of("String", unsafe { slice(vr, nvr, "vr") }?))
+    guard(c, Call::GetString, |inst| {
+        // SAFETY: the importer passes nvr value references and room for nvr string pointers.
+        let (vrs, values) = unsafe { (slice(vr, nvr, "vr")?, slice_mut(value, nvr, "value")?) };
+        inst.get_string(vrs, values)
+    })
 }
 const _: sys::fmi2GetStringTYPE = Some(fmi2GetString);
 
@@ -412,16 +407,29 @@ pub unsafe extern "C" fn fmi2SetBoolean(
 }
 const _: sys::fmi2SetBooleanTYPE = Some(fmi2SetBoolean);
 
-/// No String variables: only an empty request succeeds.
+/// Writes String parameters (before initialisation ends); all or nothing. Each value must
+/// be a non-null, NUL-terminated UTF-8 string.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetString(
     c: fmi2Component,
     vr: *const sys::fmi2ValueReference,
     nvr: usize,
-    _value: *const fmi2String,
+    value: *const fmi2String,
 ) -> fmi2Status {
-    // SAFETY: the importer passes nvr value references.
-    guard(c, Call::SetString, |_| no_variables_of("String", unsafe { slice(vr, nvr, "vr") }?))
+    guard(c, Call::SetString, |inst| {
+        // SAFETY: the importer passes nvr value references and nvr string pointers.
+        let (vrs, pointers) = unsafe { (slice(vr, nvr, "vr")?, slice(value, nvr, "value")?) };
+        let mut values = Vec::with_capacity(pointers.len());
+        for p in pointers {
+            if p.is_null() {
+                return Err(error("a String value is a null pointer"));
+            }
+            // SAFETY: a non-null fmi2String is a NUL-terminated string (FMI 2.0, section 2.1.2).
+            let text = unsafe { CStr::from_ptr(*p) }.to_str().map_err(|_| error("a String value is not UTF-8"))?;
+            values.push(text.to_string());
+        }
+        inst.set_string(vrs, &values)
+    })
 }
 const _: sys::fmi2SetStringTYPE = Some(fmi2SetString);
 

@@ -3,7 +3,8 @@
 //! Serialised layout (little endian): magic "AEMFMUST", format version (u32), payload
 //! length (u32), payload, CRC-32 of everything before it (u32). The payload holds the GUID
 //! and every field of [`SavedState`] in order: flags, parameters, settings, inputs, times,
-//! then the plant (a module's state, or a hub's groups and totals). On the way back in,
+//! the module parameter file's name and its parameter sets, then the plant (a module's state,
+//! or a hub's groups and totals). On the way back in,
 //! magic, version, length, checksum, GUID, enum codes, finiteness and the plant's
 //! consistency with its settings are all checked.
 
@@ -17,7 +18,7 @@ use super::variables::Inputs;
 
 const MAGIC: &[u8; 8] = b"AEMFMUST";
 /// Version of the serialised format; bump it whenever the payload changes.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 const SAVED_MAGIC: u64 = 0x4145_4d5f_5354_4154; // "AEM_STAT"
 const PLANT_NONE: u8 = 0;
 const PLANT_MODULE: u8 = 1;
@@ -44,6 +45,10 @@ pub struct SavedState {
     pub time: f64,
     /// stopTime of fmi2SetupExperiment, if defined [s].
     pub stop_time: Option<f64>,
+    /// `moduleParameterFile`.
+    pub module_parameter_file: String,
+    /// The per-module parameter sets read from it at initialisation.
+    pub module_sets: Option<Vec<Parameters>>,
     /// The plant's state, once initialised.
     pub plant: Option<PlantSnapshot>,
 }
@@ -60,9 +65,24 @@ impl SavedState {
         excursion: bool,
         time: f64,
         stop_time: Option<f64>,
+        module_parameter_file: String,
+        module_sets: Option<Vec<Parameters>>,
         plant: Option<PlantSnapshot>,
     ) -> Self {
-        SavedState { magic: SAVED_MAGIC, fmi_state, params, settings, inputs, setpoint_slope, excursion, time, stop_time, plant }
+        SavedState {
+            magic: SAVED_MAGIC,
+            fmi_state,
+            params,
+            settings,
+            inputs,
+            setpoint_slope,
+            excursion,
+            time,
+            stop_time,
+            module_parameter_file,
+            module_sets,
+            plant,
+        }
     }
 
     /// Whether `ptr` is aligned and its memory carries a saved state's magic (a cheap guard
@@ -109,6 +129,16 @@ impl SavedState {
         }
         for x in [self.inputs.setpoint, self.inputs.power_reference, self.setpoint_slope, self.time, self.stop_time.unwrap_or(0.0)] {
             w.f64(x);
+        }
+        w.u32(self.module_parameter_file.len() as u32);
+        w.bytes(self.module_parameter_file.as_bytes());
+        w.u8(self.module_sets.is_some() as u8);
+        let sets = self.module_sets.as_deref().unwrap_or(&[]);
+        w.u32(sets.len() as u32);
+        for set in sets {
+            for x in parameter_values(set) {
+                w.f64(x);
+            }
         }
         match &self.plant {
             None => w.u8(PLANT_NONE),
@@ -176,23 +206,7 @@ impl SavedState {
         let fmi_state = FmiState::from_code(r.u8()?).ok_or("serialised state has an unknown FMI state")?;
         let excursion = r.flag()?;
         let has_stop = r.flag()?;
-        let mut p = [0.0; 11];
-        for v in p.iter_mut() {
-            *v = r.finite()?;
-        }
-        let params = Parameters {
-            gain: p[0],
-            tau_zero: p[1],
-            tau_pole1: p[2],
-            tau_pole2: p[3],
-            ramp_up_limit: p[4],
-            voltage_intercept: p[5],
-            ohmic_resistance: p[6],
-            h2_coefficient: p[7],
-            nominal_current: p[8],
-            min_setpoint: p[9],
-            max_setpoint: p[10],
-        };
+        let params = read_parameters(&mut r)?;
         let (n_modules, dispatch, below_minimum, spread_seed) = (r.u32()? as i32, r.u32()? as i32, r.u32()? as i32, r.u32()? as i32);
         let power_input = r.flag()?;
         let mut x = [0.0; 8];
@@ -216,6 +230,19 @@ impl SavedState {
         };
         let inputs = Inputs { setpoint: r.finite()?, power_reference: r.finite()? };
         let (setpoint_slope, time, stop) = (r.finite()?, r.finite()?, r.finite()?);
+        let path_len = r.u32()? as usize;
+        let module_parameter_file =
+            String::from_utf8(r.take(path_len)?.to_vec()).map_err(|_| "serialised state holds a file name that is not UTF-8")?;
+        let has_sets = r.flag()?;
+        let set_count = r.u32()? as usize;
+        if set_count.checked_mul(8 * 11).is_none_or(|b| b > r.bytes.len() - r.pos) || (!has_sets && set_count > 0) {
+            return Err("serialised state is truncated (parameter sets)".into());
+        }
+        let mut sets = Vec::with_capacity(set_count);
+        for _ in 0..set_count {
+            sets.push(read_parameters(&mut r)?);
+        }
+        let module_sets = has_sets.then_some(sets);
         let plant = match r.u8()? {
             PLANT_NONE => None,
             PLANT_MODULE => {
@@ -233,10 +260,25 @@ impl SavedState {
             return Err("serialised state has trailing bytes".into());
         }
         if plant.is_some() {
-            params.validate().map_err(|e| format!("serialised state holds invalid parameters: {e}"))?;
+            for p in std::iter::once(&params).chain(module_sets.iter().flatten()) {
+                p.validate().map_err(|e| format!("serialised state holds invalid parameters: {e}"))?;
+            }
             settings.config().map_err(|e| format!("serialised state holds invalid settings: {e}"))?;
         }
-        Ok(SavedState::new(fmi_state, params, settings, inputs, setpoint_slope, excursion, time, has_stop.then_some(stop), plant))
+        let stop_time = has_stop.then_some(stop);
+        Ok(SavedState::new(
+            fmi_state,
+            params,
+            settings,
+            inputs,
+            setpoint_slope,
+            excursion,
+            time,
+            stop_time,
+            module_parameter_file,
+            module_sets,
+            plant,
+        ))
     }
 }
 
@@ -255,6 +297,27 @@ fn parameter_values(p: &Parameters) -> [f64; 11] {
         p.min_setpoint,
         p.max_setpoint,
     ]
+}
+
+/// Parameters in the order of [`parameter_values`].
+fn read_parameters(r: &mut Reader) -> Result<Parameters, String> {
+    let mut p = [0.0; 11];
+    for v in p.iter_mut() {
+        *v = r.finite()?;
+    }
+    Ok(Parameters {
+        gain: p[0],
+        tau_zero: p[1],
+        tau_pole1: p[2],
+        tau_pole2: p[3],
+        ramp_up_limit: p[4],
+        voltage_intercept: p[5],
+        ohmic_resistance: p[6],
+        h2_coefficient: p[7],
+        nominal_current: p[8],
+        min_setpoint: p[9],
+        max_setpoint: p[10],
+    })
 }
 
 /// A hub's groups and totals; the group count is bounded by the bytes that hold them.
@@ -359,18 +422,21 @@ mod tests {
         };
         let inputs = Inputs { setpoint: 73.0, power_reference: 1.5e6 };
         let plant = Some(PlantSnapshot::Module(module));
-        SavedState::new(FmiState::StepComplete, Parameters::default(), PlantSettings::default(), inputs, -0.25, false, 112.5, Some(3600.0), plant)
+        let settings = PlantSettings::default();
+        SavedState::new(FmiState::StepComplete, Parameters::default(), settings, inputs, -0.25, false, 112.5, Some(3600.0), String::new(), None, plant)
     }
 
     fn hub_sample() -> SavedState {
         let settings = PlantSettings { n_modules: 10, dispatch: 2, below_minimum: 1, power_input: true, ..PlantSettings::default() };
         let config = settings.config().unwrap();
-        let mut plant = crate::model::Plant::new(Parameters::default(), &config, 0.0, 12_000.0).unwrap();
+        let sets = vec![Parameters::default(), Parameters { gain: 0.5, ..Parameters::default() }];
+        let mut plant = crate::model::Plant::new(Parameters::default(), &config, Some(&sets), 0.0, 12_000.0).unwrap();
         for k in 0..400 {
             plant.step(&config, 0.0, 0.0, if k < 100 { 3_000.0 } else { 20_000.0 }, 1.0).unwrap();
         }
         let inputs = Inputs { setpoint: 0.0, power_reference: 20_000.0 };
-        SavedState::new(FmiState::StepComplete, Parameters::default(), settings, inputs, 0.0, false, 400.0, None, Some(plant.snapshot()))
+        let file = "/data/params.json".to_string();
+        SavedState::new(FmiState::StepComplete, Parameters::default(), settings, inputs, 0.0, false, 400.0, None, file, Some(sets), Some(plant.snapshot()))
     }
 
     #[test]

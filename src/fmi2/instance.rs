@@ -4,15 +4,19 @@
 //! slices and call one method here. Every method either succeeds or returns a [`Failure`]
 //! having changed nothing.
 
+use std::ffi::{c_char, CString};
+
+use crate::identify::params_io::ParameterFile;
 use crate::model::{shown, Parameters, Plant, PlantConfig, PlantSettings};
-use crate::model_description::{BooleanVariable, Causality, IntegerVariable, RealVariable};
+use crate::model_description::{BooleanVariable, Causality, IntegerVariable, RealVariable, StringVariable};
 
 use super::fmu_state::SavedState;
 use super::logger::{Logger, LOG_EVENTS};
 use super::state_machine::FmiState;
 use super::status::{discard, error, CallResult, Status};
 use super::variables::{
-    boolean_parameter_mut, integer_output, integer_parameter_mut, real_input_mut, real_output, real_parameter_mut, Inputs,
+    boolean_parameter_mut, integer_output, integer_parameter_mut, real_input_mut, real_output, real_parameter_mut,
+    string_parameter_mut, Inputs,
 };
 
 /// Relative tolerance when comparing a master's communication point with the FMU's time;
@@ -42,8 +46,15 @@ pub struct Instance {
     time: f64,
     /// stopTime of fmi2SetupExperiment, if defined: steps past it are refused [s].
     stop_time: Option<f64>,
+    /// `moduleParameterFile`: a parameter file of aem-identify, or empty.
+    module_parameter_file: String,
+    /// The per-module parameter sets read from it at initialisation (kept with the state, so
+    /// restoring never reads the file again).
+    module_sets: Option<Vec<Parameters>>,
     /// The validated settings and the plant, once initialised.
     plant: Option<(PlantConfig, Plant)>,
+    /// Strings returned by the last fmi2GetString (valid until the next call).
+    returned_strings: Vec<CString>,
 }
 
 impl Instance {
@@ -60,7 +71,10 @@ impl Instance {
             excursion: false,
             time: 0.0,
             stop_time: None,
+            module_parameter_file: String::new(),
+            module_sets: None,
             plant: None,
+            returned_strings: Vec::new(),
         }
     }
 
@@ -102,18 +116,40 @@ impl Instance {
         Ok(Status::Ok)
     }
 
-    /// The plant for the current parameters, settings and inputs, in steady state.
-    fn build_plant(&self) -> Result<(PlantConfig, Plant), String> {
+    /// The parameter sets of `moduleParameterFile` over the current parameters, if one is set.
+    fn read_module_sets(&self) -> Result<Option<Vec<Parameters>>, String> {
+        let path = self.module_parameter_file.strip_prefix("file://").unwrap_or(&self.module_parameter_file);
+        if path.is_empty() {
+            return Ok(None);
+        }
+        let file = ParameterFile::load(std::path::Path::new(path)).map_err(|e| format!("moduleParameterFile: {e}"))?;
+        let sets = file
+            .modules
+            .iter()
+            .map(|m| m.parameters_over(self.params).map_err(|e| format!("moduleParameterFile {path}, module {}: {e}", m.module)))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok(Some(sets))
+    }
+
+    /// The plant for the current parameters, settings and inputs, in steady state, with the
+    /// per-module sets it uses.
+    fn build_plant(&self) -> Result<(PlantConfig, Plant, Option<Vec<Parameters>>), String> {
         let config = self.settings.config().map_err(|e| e.to_string())?;
-        let plant = Plant::new(self.params, &config, self.inputs.setpoint, self.inputs.power_reference).map_err(|e| e.to_string())?;
-        Ok((config, plant))
+        let sets = self.read_module_sets()?;
+        let plant = Plant::new(self.params, &config, sets.as_deref(), self.inputs.setpoint, self.inputs.power_reference)
+            .map_err(|e| e.to_string())?;
+        Ok((config, plant, sets))
     }
 
     /// fmi2ExitInitializationMode: validates the parameters and settings and starts the
     /// module or hub in steady state for the current inputs.
     pub fn exit_initialization_mode(&mut self) -> CallResult {
-        let (config, plant) = self.build_plant().map_err(|e| error(format!("initialisation refused: {e}")))?;
-        let what = if config.is_single_module() { "one module".to_string() } else { format!("a hub of {} modules", config.hub.n_modules) };
+        let (config, plant, sets) = self.build_plant().map_err(|e| error(format!("initialisation refused: {e}")))?;
+        let what = match (&plant, &sets) {
+            (Plant::Module(_), _) => "one module".to_string(),
+            (_, Some(sets)) => format!("a hub of {} modules with {} parameter sets", config.hub.n_modules, sets.len()),
+            _ => format!("a hub of {} modules", config.hub.n_modules),
+        };
         self.logger.info(
             LOG_EVENTS,
             &format!(
@@ -124,6 +160,7 @@ impl Instance {
             ),
         );
         let slope_dropped = !plant.takes_setpoint_slope() && self.setpoint_slope != 0.0;
+        self.module_sets = sets;
         self.plant = Some((config, plant));
         self.state = FmiState::StepComplete;
         let status = self.update_excursion();
@@ -160,7 +197,7 @@ impl Instance {
     fn with_plant<T>(&self, name: &str, f: impl FnOnce(&Plant) -> T) -> Result<T, String> {
         match &self.plant {
             Some((_, plant)) => Ok(f(plant)),
-            None => self.build_plant().map(|(_, plant)| f(&plant)).map_err(|e| format!("{name} cannot be computed yet: {e}")),
+            None => self.build_plant().map(|(_, plant, _)| f(&plant)).map_err(|e| format!("{name} cannot be computed yet: {e}")),
         }
     }
 
@@ -279,11 +316,41 @@ impl Instance {
         Ok(Status::Ok)
     }
 
+    /// fmi2GetString: the pointers stay valid until the next fmi2GetString on this instance.
+    pub fn get_string(&mut self, vrs: &[u32], values: &mut [*const c_char]) -> CallResult {
+        let mut strings = Vec::with_capacity(vrs.len());
+        for vr in vrs {
+            let var = known(*vr, StringVariable::from_value_reference, "String")?;
+            let mut file = self.module_parameter_file.clone();
+            let value = string_parameter_mut(&mut file, var).map(|v| v.clone()).ok_or_else(|| error(format!("{} has no value here", var.name())))?;
+            strings.push(super::logger::c_string(&value));
+        }
+        for (out, s) in values.iter_mut().zip(&strings) {
+            *out = s.as_ptr();
+        }
+        self.returned_strings = strings;
+        Ok(Status::Ok)
+    }
+
+    /// fmi2SetString: parameters only; all values are checked before any is applied.
+    pub fn set_string(&mut self, vrs: &[u32], values: &[String]) -> CallResult {
+        let mut file = self.module_parameter_file.clone();
+        for (vr, value) in vrs.iter().zip(values) {
+            let var = known(*vr, StringVariable::from_value_reference, "String")?;
+            self.parameter_settable(var.name())?;
+            if let Some(field) = string_parameter_mut(&mut file, var) {
+                *field = value.clone();
+            }
+        }
+        self.module_parameter_file = file;
+        Ok(Status::Ok)
+    }
+
     /// fmi2SetRealInputDerivatives: first derivatives of the input for the next step; all
     /// values are checked before any is applied.
     pub fn set_input_derivatives(&mut self, vrs: &[u32], orders: &[i32], values: &[f64]) -> CallResult {
         let config = self.config();
-        let single = config.as_ref().is_none_or(|c| c.is_single_module());
+        let single = self.single_module();
         let power_input = config.as_ref().is_some_and(|c| c.power_input);
         let mut slope = self.setpoint_slope;
         let mut ignored = Vec::new();
@@ -328,6 +395,16 @@ impl Instance {
         Ok(Status::Warning)
     }
 
+    /// Whether a single module (which integrates an interpolated setpoint and warns when its
+    /// setpoint leaves the window) is simulated, or (before initialisation, with settings not
+    /// yet valid) may be.
+    fn single_module(&self) -> bool {
+        match &self.plant {
+            Some((_, plant)) => plant.takes_setpoint_slope(),
+            None => self.module_parameter_file.is_empty() && self.config().is_none_or(|c| c.is_single_module()),
+        }
+    }
+
     /// The validated settings: the running plant's, or (before initialisation) the current
     /// ones if they are valid.
     fn config(&self) -> Option<PlantConfig> {
@@ -340,7 +417,7 @@ impl Instance {
     /// Logs a warning when the setpoint leaves the operating window (once per excursion).
     /// A hub's setpoint is shared out by its dispatch, so only a single module warns.
     fn update_excursion(&mut self) -> Status {
-        if !self.config().is_some_and(|c| c.is_single_module()) {
+        if self.plant.is_none() || !self.single_module() {
             return Status::Ok;
         }
         let (lo, hi) = (self.params.min_setpoint, self.params.max_setpoint);
@@ -419,6 +496,8 @@ impl Instance {
             self.excursion,
             self.time,
             self.stop_time,
+            self.module_parameter_file.clone(),
+            self.module_sets.clone(),
             self.plant.as_ref().map(|(_, plant)| plant.snapshot()),
         )
     }
@@ -430,7 +509,8 @@ impl Instance {
             Some(snapshot) => {
                 let invalid = |e: String| error(format!("the FMU state holds invalid values: {e}"));
                 let config = saved.settings.config().map_err(|e| invalid(e.to_string()))?;
-                let mut plant = Plant::new(saved.params, &config, saved.inputs.setpoint, saved.inputs.power_reference)
+                let sets = saved.module_sets.as_deref();
+                let mut plant = Plant::new(saved.params, &config, sets, saved.inputs.setpoint, saved.inputs.power_reference)
                     .map_err(|e| invalid(e.to_string()))?;
                 plant.restore(snapshot.clone()).map_err(invalid)?;
                 Some((config, plant))
@@ -449,6 +529,8 @@ impl Instance {
         self.excursion = saved.excursion;
         self.time = saved.time;
         self.stop_time = saved.stop_time;
+        self.module_parameter_file = saved.module_parameter_file.clone();
+        self.module_sets = saved.module_sets.clone();
         self.plant = plant;
         Ok(Status::Ok)
     }

@@ -3,7 +3,7 @@
 //! XML and this code cannot drift apart.
 
 use crate::model::{OperatingState, Parameters, Plant, PlantSettings};
-use crate::model_description::{BooleanVariable, IntegerVariable, RealVariable};
+use crate::model_description::{BooleanVariable, IntegerVariable, RealVariable, StringVariable};
 
 /// The instance's input values.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -136,6 +136,13 @@ pub fn boolean_parameter_mut(settings: &mut PlantSettings, var: BooleanVariable)
     }
 }
 
+/// The String parameter field behind `var` (given the instance's `moduleParameterFile`).
+pub fn string_parameter_mut(module_parameter_file: &mut String, var: StringVariable) -> Option<&mut String> {
+    match var {
+        StringVariable::ModuleParameterFile => Some(module_parameter_file),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -144,7 +151,7 @@ mod tests {
     #[test]
     fn every_variable_of_the_xml_maps_to_exactly_one_role_and_its_start_value() {
         let defaults = PlantSettings::default();
-        let plant = Plant::new(Parameters::default(), &defaults.config().unwrap(), 100.0, 0.0).unwrap();
+        let plant = Plant::new(Parameters::default(), &defaults.config().unwrap(), None, 100.0, 0.0).unwrap();
         for var in RealVariable::ALL {
             let (mut p, mut s, mut i) = (Parameters::default(), defaults, Inputs::default());
             let param = real_parameter_mut(&mut p, &mut s, var).map(|v| *v);
@@ -162,6 +169,12 @@ mod tests {
             assert_eq!(param.is_some(), var.causality() == Causality::Parameter, "{var:?}");
             assert_eq!(integer_output(var, &plant).is_some(), var.causality() == Causality::Output, "{var:?}");
             assert_eq!(param, var.start(), "{var:?}");
+        }
+        for var in StringVariable::ALL {
+            let mut file = String::new();
+            let param = string_parameter_mut(&mut file, var).map(|v| v.clone());
+            assert_eq!(param.is_some(), var.causality() == Causality::Parameter, "{var:?}");
+            assert_eq!(param.as_deref(), var.start(), "{var:?}");
         }
         for var in BooleanVariable::ALL {
             let mut s = defaults;

@@ -158,8 +158,14 @@ impl ModuleEntry {
     /// The model's parameters: the file's values over the model description's start values.
     /// Unknown names, wrong units and invalid sets are refused.
     pub fn parameters(&self) -> std::result::Result<Parameters, String> {
+        self.parameters_over(Parameters::default())
+    }
+
+    /// The model's parameters: the file's values over `base`. Unknown names, wrong units and
+    /// invalid sets are refused.
+    pub fn parameters_over(&self, base: Parameters) -> std::result::Result<Parameters, String> {
         let known = fmu_parameters();
-        let mut p = Parameters::default();
+        let mut p = base;
         for (name, entry) in &self.parameters {
             let Some((_, unit)) = known.iter().find(|(n, _)| n == name) else {
                 let names: Vec<&str> = known.iter().map(|(n, _)| *n).collect();

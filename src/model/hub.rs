@@ -43,10 +43,11 @@ impl Default for HubConfig {
     }
 }
 
-/// One parameter set with its derived constants.
+/// One parameter set with its derived constants and the number of modules that have it.
 #[derive(Clone, Debug)]
 struct ModuleType {
     params: Parameters,
+    count: u32,
     dynamics: CurrentDynamics,
     factors: StepFactors,
     /// c / 3600 [Nl/(A·s)].
@@ -105,7 +106,7 @@ impl Hub {
     /// the dispatch asks for at t = 0 under `demand`: running modules Steady in steady state,
     /// the others Idle.
     pub fn new(params: Parameters, config: HubConfig, demand: Demand) -> Result<Self, ParameterError> {
-        Self::build(vec![params], config, demand)
+        Self::build(vec![(params, config.n_modules)], config, demand)
     }
 
     /// A hub whose module k has parameter set `sets[k]` (one group per module).
@@ -117,14 +118,28 @@ impl Hub {
                 requirement: format!("must equal the number of parameter sets, {}", sets.len()),
             });
         }
+        Self::build(sets.into_iter().map(|p| (p, 1)).collect(), config, demand)
+    }
+
+    /// A hub whose modules have the parameter sets `sets`, `(set, count)` each; the counts
+    /// must add up to nModules.
+    pub fn with_parameter_counts(sets: Vec<(Parameters, u32)>, config: HubConfig, demand: Demand) -> Result<Self, ParameterError> {
+        let total: u64 = sets.iter().map(|(_, c)| *c as u64).sum();
+        if total != config.n_modules as u64 || sets.iter().any(|(_, c)| *c == 0) {
+            return Err(ParameterError {
+                name: "nModules",
+                value: config.n_modules as f64,
+                requirement: format!("must equal the modules of the parameter sets, {total}, none empty"),
+            });
+        }
         Self::build(sets, config, demand)
     }
 
-    fn build(sets: Vec<Parameters>, config: HubConfig, demand: Demand) -> Result<Self, ParameterError> {
+    fn build(sets: Vec<(Parameters, u32)>, config: HubConfig, demand: Demand) -> Result<Self, ParameterError> {
         validate(&config)?;
         let mut types = Vec::with_capacity(sets.len());
         let mut max_power = 0.0;
-        for params in sets {
+        for (params, count) in sets {
             params.validate()?;
             if matches!(demand, Demand::Power(_)) && params.voltage_intercept == 0.0 && params.ohmic_resistance == 0.0 {
                 return Err(ParameterError {
@@ -134,16 +149,14 @@ impl Hub {
                 });
             }
             let op = &config.operation;
-            max_power += power_at_setpoint(&params, params.max_setpoint).max(op.start_power).max(op.standby_power);
+            max_power += count as f64 * power_at_setpoint(&params, params.max_setpoint).max(op.start_power).max(op.standby_power);
             types.push(ModuleType {
+                count,
                 dynamics: CurrentDynamics::new(&params),
                 factors: StepFactors::default(),
                 h2_per_coulomb: params.h2_coefficient / SECONDS_PER_HOUR,
                 params,
             });
-        }
-        if types.len() == 1 {
-            max_power *= config.n_modules as f64;
         }
         if !demand.value().is_finite() {
             return Err(ParameterError { name: "setpoint", value: demand.value(), requirement: "must be a finite number".into() });
@@ -159,9 +172,9 @@ impl Hub {
         };
         let n = hub.target_count(demand);
         hub.running_target = n;
-        let per_type_count = if hub.types.len() == 1 { config.n_modules } else { 1 };
         let mut active_left = n;
         for kind in 0..hub.types.len() {
+            let per_type_count = hub.types[kind].count;
             let on = active_left.min(per_type_count);
             active_left -= on;
             let u = hub.module_setpoint(kind, demand, n.max(1));
@@ -241,7 +254,7 @@ impl Hub {
         }
         totals.time += h;
         self.totals = totals;
-        if self.types.len() == 1 && self.groups.len() > 1 {
+        if self.groups.len() > self.types.len() {
             self.merge();
         }
         Ok(())
@@ -333,7 +346,7 @@ impl Hub {
         }
     }
 
-    /// Merges groups whose modules are in bit-identical states (shared parameter set only).
+    /// Merges groups of the same parameter set whose modules are in bit-identical states.
     fn merge(&mut self) {
         self.groups.sort_unstable_by(identity_order);
         let mut w = 0;
@@ -452,8 +465,7 @@ impl Hub {
             }
             per_kind[g.kind as usize] += g.count as u64;
         }
-        let expected = if kinds == 1 { self.config.n_modules as u64 } else { 1 };
-        if per_kind.iter().any(|&n| n != expected) {
+        if per_kind.iter().zip(&self.types).any(|(&n, ty)| n != ty.count as u64) {
             return Err(format!("the groups do not hold exactly the hub's {} modules", self.config.n_modules));
         }
         let t = &snapshot.totals;

@@ -5,7 +5,9 @@
 //! - a [`Module`]: one module that never stops, driven by its setpoint (nModules = 1,
 //!   belowMinimum = 0, powerInput = false, parameterSpread = 0): the paper's model, which
 //!   also integrates a linearly interpolated setpoint exactly; or
-//! - a [`Hub`]: everything else (operating states, dispatch, power reference, spread).
+//! - a [`Hub`]: everything else (operating states, dispatch, power reference, a spread of
+//!   parameters, or per-module parameter sets such as those `aem-identify` writes: module k
+//!   of N has set k mod M of M sets).
 //!
 //! Module outputs of a hub are per-module means: I = ΣI/N [A], P = P_hub/N [W],
 //! F = F_hub/N [Nl/h], E = E_hub/N [J], H = H_hub/N [Nl]; V is the mean of V0 + R·I over
@@ -165,13 +167,29 @@ pub enum Plant {
 
 impl Plant {
     /// A plant in steady state for the inputs at t = 0 (running modules in steady state at
-    /// their dispatched setpoint, the others off).
-    pub fn new(params: Parameters, config: &PlantConfig, setpoint: f64, power_reference: f64) -> Result<Self, ParameterError> {
-        if config.is_single_module() {
+    /// their dispatched setpoint, the others off). `module_sets`: per-module parameter sets
+    /// (module k has set k mod M), instead of `params` for every module.
+    pub fn new(
+        params: Parameters,
+        config: &PlantConfig,
+        module_sets: Option<&[Parameters]>,
+        setpoint: f64,
+        power_reference: f64,
+    ) -> Result<Self, ParameterError> {
+        if config.is_single_module() && module_sets.is_none() {
             return Ok(Plant::Module(Module::new(params, setpoint)?));
         }
         let demand = config.demand(setpoint, power_reference);
-        let hub = if config.parameter_spread > 0.0 {
+        let hub = if let Some(sets) = module_sets {
+            if config.parameter_spread > 0.0 {
+                return Err(ParameterError {
+                    name: "parameterSpread",
+                    value: config.parameter_spread,
+                    requirement: "must be 0 with a moduleParameterFile (choose one source of per-module parameters)".into(),
+                });
+            }
+            Hub::with_parameter_counts(round_robin(sets, config.hub.n_modules)?, config.hub, demand)?
+        } else if config.parameter_spread > 0.0 {
             params.validate()?;
             let n = config.hub.n_modules as usize;
             Hub::with_parameter_sets(spread_parameters(&params, n, config.parameter_spread, config.spread_seed), config.hub, demand)?
@@ -339,6 +357,21 @@ impl Plant {
         use OperatingState::*;
         [Steady, Curve, Standby, Blowdown].into_iter().find(|&s| self.count_in(s) > 0).unwrap_or(Idle)
     }
+}
+
+/// Module k of `n` has set k mod M: set j serves ⌊n/M⌋ modules, one more for j < n mod M.
+/// Sets beyond the n-th serve no module and are left out.
+fn round_robin(sets: &[Parameters], n: u32) -> Result<Vec<(Parameters, u32)>, ParameterError> {
+    if sets.is_empty() {
+        return Err(ParameterError { name: "moduleParameterFile", value: 0.0, requirement: "must hold at least one module".into() });
+    }
+    let m = sets.len() as u32;
+    Ok(sets
+        .iter()
+        .enumerate()
+        .map(|(j, p)| (*p, n / m + u32::from((j as u32) < n % m)))
+        .filter(|(_, count)| *count > 0)
+        .collect())
 }
 
 #[cfg(test)]

@@ -85,14 +85,15 @@ FMI2_CS_FUNCTIONS = (
 
 FMUTOOL = Path(sys.executable).with_name("fmutool")
 
-# Serialised FMU state (src/fmi2/fmu_state.rs, format 4): magic(8) version(4) payload length(4)
+# Serialised FMU state (src/fmi2/fmu_state.rs, format 5): magic(8) version(4) payload length(4)
 # payload crc32(4); payload = GUID length(4) GUID, FMI state code, excursion and stop-time flags
 # (1 each), 11 f64 parameters (gain first), 4 u32 and 1 u8 hub settings, 8 f64 hub settings,
-# 5 f64 (setpoint, powerReference, setpoint slope, time, stop time), plant kind (1), and for a
-# single module 6 f64.
+# 5 f64 (setpoint, powerReference, setpoint slope, time, stop time), the module parameter file
+# (u32 length, here 0, and its bytes), a flag and a u32 count of parameter sets (here none),
+# plant kind (1), and for a single module 6 f64.
 STATE_MAGIC, STATE_VERSION, STATE_LENGTH, STATE_PAYLOAD = 0, 8, 12, 16
 STATE_FLAGS = 3
-STATE_AFTER_PARAMETERS = 8 * 11 + 4 * 4 + 1 + 8 * 8 + 8 * 5 + 1 + 8 * 6
+STATE_AFTER_PARAMETERS = 8 * 11 + 4 * 4 + 1 + 8 * 8 + 8 * 5 + 4 + 1 + 4 + 1 + 8 * 6
 
 # Life-cycle test.
 CYCLES = 1000

@@ -197,3 +197,57 @@ def test_a_hub_refuses_an_interpolated_input(driver):
         d.fmu.setRealInputDerivatives([d.vr["setpoint"]], [1], [0.5])
     assert any("holds its inputs" in m for _, _, m in d.messages)
     d.step(1.0)  # the instance still serves valid calls
+
+
+def parameter_file(path, gains):
+    """A parameter file as aem-identify writes it, one module per gain [A/%]."""
+    import json
+
+    modules = [
+        {"module": f"M{k}", "parameters": {"gain": {"value": g, "unit": "A/%", "source": "identified"}}}
+        for k, g in enumerate(gains)
+    ]
+    path.write_text(json.dumps({"generator": "test", "modules": modules}))
+    return str(path)
+
+
+def test_module_parameter_file_gives_modules_their_own_sets(driver, tmp_path):
+    path = parameter_file(tmp_path / "params.json", [0.50, 0.56])
+    d = driver(logging_on=True)
+    d.fmu.setupExperiment(startTime=0.0)
+    d.fmu.setInteger([d.vr["nModules"]], [5])
+    d.fmu.setString([d.vr["moduleParameterFile"]], [path])
+    d.set(setpoint=80.0, ohmicResistance=0.2)  # parameters the file does not set keep these values
+    d.fmu.enterInitializationMode()
+    assert [s.decode() if isinstance(s, bytes) else s for s in d.fmu.getString([d.vr["moduleParameterFile"]])] == [path]
+    d.fmu.exitInitializationMode()
+    # Modules 0, 2, 4 have K = 0.50, modules 1, 3 have K = 0.56: I_k = K_k * 80 in steady state.
+    currents = [0.50 * 80] * 3 + [0.56 * 80] * 2
+    assert d.get("current") == pytest.approx(sum(currents) / 5, rel=1e-12)
+    assert d.get("hubPower") == pytest.approx(sum((V0 + 0.2 * i) * i for i in currents), rel=1e-12)
+    # The sets travel with the FMU state: the file is not read again.
+    state = d.fmu.getFMUstate()
+    blob = d.fmu.serializeFMUstate(state)
+    run(d, 100, 10.0, setpoint=90.0)
+    (tmp_path / "params.json").unlink()
+    d.fmu.setFMUstate(d.fmu.deSerializeFMUstate(blob))
+    assert d.get("current") == pytest.approx(sum(currents) / 5, rel=1e-12)
+    d.fmu.freeFMUstate(state)
+
+
+@pytest.mark.parametrize("content,words", [
+    (None, "moduleParameterFile"),  # missing file
+    ('{"generator": "x", "modules": [{"module": "A", "parameters": {"gain": {"value": 0.5, "unit": "A", "source": "identified"}}}]}', "unit"),
+    ('{"generator": "x", "modules": [{"module": "A", "parameters": {"tauPole1": {"value": -1, "unit": "s", "source": "identified"}}}]}', "tauPole1"),
+])
+def test_a_bad_module_parameter_file_is_refused_by_name(driver, tmp_path, content, words):
+    path = tmp_path / "params.json"
+    if content is not None:
+        path.write_text(content)
+    d = driver(logging_on=True)
+    d.fmu.setupExperiment(startTime=0.0)
+    d.fmu.setString([d.vr["moduleParameterFile"]], [str(path)])
+    d.fmu.enterInitializationMode()
+    with pytest.raises(Exception):
+        d.fmu.exitInitializationMode()
+    assert any(words in m and "params.json" in m for _, _, m in d.messages), d.messages

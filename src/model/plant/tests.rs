@@ -7,7 +7,7 @@ fn hub_settings(n: i32, dispatch: i32, below: i32) -> PlantSettings {
 
 fn plant(settings: PlantSettings, setpoint: f64, power: f64) -> (Plant, PlantConfig) {
     let config = settings.config().unwrap();
-    (Plant::new(Parameters::default(), &config, setpoint, power).unwrap(), config)
+    (Plant::new(Parameters::default(), &config, None, setpoint, power).unwrap(), config)
 }
 
 #[test]
@@ -116,4 +116,21 @@ fn snapshots_restore_exactly_and_only_into_their_kind() {
     }
     assert!(hub.restore(broken).is_err());
     assert_eq!(hub.hub_power(), power);
+}
+
+#[test]
+fn module_sets_are_shared_round_robin() {
+    let a = Parameters { gain: 0.5, ..Parameters::default() };
+    let b = Parameters { gain: 0.6, ..Parameters::default() };
+    let config = PlantSettings { n_modules: 5, ..PlantSettings::default() }.config().unwrap();
+    let p = Plant::new(Parameters::default(), &config, Some(&[a, b]), 80.0, 0.0).unwrap();
+    // Modules 0, 2, 4 have set a; 1 and 3 set b.
+    assert!((p.current() - (3.0 * 0.5 + 2.0 * 0.6) / 5.0 * 80.0).abs() <= 1e-12);
+    // Even one module with a set from a file is a hub (of one), with that set.
+    let one = Plant::new(Parameters::default(), &PlantSettings::default().config().unwrap(), Some(&[b]), 80.0, 0.0).unwrap();
+    assert!(matches!(one, Plant::Hub(..)));
+    assert!((one.current() - 0.6 * 80.0).abs() <= 1e-12);
+    let spread = PlantSettings { n_modules: 5, parameter_spread: 0.1, ..PlantSettings::default() }.config().unwrap();
+    assert_eq!(Plant::new(Parameters::default(), &spread, Some(&[a]), 80.0, 0.0).unwrap_err().name, "parameterSpread");
+    assert_eq!(Plant::new(Parameters::default(), &config, Some(&[]), 80.0, 0.0).unwrap_err().name, "moduleParameterFile");
 }
