@@ -15,7 +15,7 @@ use std::ptr::{null, null_mut};
 use aem_electrolyser::fmi2::exports::*;
 use aem_electrolyser::fmi2::variables::{integer_parameter_mut, real_parameter_mut};
 use aem_electrolyser::model::{Parameters, PlantSettings};
-use aem_electrolyser::model_description::{Causality, IntegerVariable, RealVariable, GUID};
+use aem_electrolyser::model_description::{Causality, IntegerVariable, RealVariable, StringVariable, GUID};
 use fmi_sys::fmi2 as sys;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -90,6 +90,8 @@ enum Op {
     IntegerCall { vr: u32 },
     /// A hub setting: an Integer parameter, or powerInput.
     SetSetting { vr: u32, value: i32 },
+    /// moduleParameterFile: a null pointer, empty, or a file that does not exist.
+    SetFile { path: Option<&'static str> },
     Unsupported { which: u8 },
     InputDerivative { vr: u32, order: i32, value: f64 },
     Status { kind: u32 },
@@ -135,6 +137,7 @@ fn op() -> impl Strategy<Value = Op> {
             prop_oneof![6 => -1..6i32, 1 => Just(40i32), 1 => Just(i32::MAX), 1 => Just(i32::MIN)]
         )
             .prop_map(|(vr, value)| Op::SetSetting { vr, value }),
+        1 => prop_oneof![Just(None), Just(Some("")), Just(Some("/nonexistent/params.json"))].prop_map(|path| Op::SetFile { path }),
         1 => (1u8..4).prop_map(|which| Op::Unsupported { which }),
         3 => (value_reference(), prop_oneof![4 => Just(1i32), 1 => Just(0i32), 1 => Just(2i32)], prop_oneof![4 => -3.0..3.0f64, 1 => Just(f64::NAN)])
             .prop_map(|(vr, order, value)| Op::InputDerivative { vr, order, value }),
@@ -150,11 +153,12 @@ struct View {
     stop: Option<f64>,
     params: Parameters,
     settings: PlantSettings,
+    file: String,
 }
 
 impl View {
     fn fresh() -> View {
-        View { state: State::Instantiated, time: 0.0, stop: None, params: Parameters::default(), settings: PlantSettings::default() }
+        View { state: State::Instantiated, time: 0.0, stop: None, params: Parameters::default(), settings: PlantSettings::default(), file: String::new() }
     }
 
     /// Whether fmi2ExitInitializationMode succeeds: valid parameters and settings, and a
@@ -162,13 +166,13 @@ impl View {
     fn initialisable(&self) -> bool {
         let p = &self.params;
         let power_without_curve = self.settings.power_input && p.voltage_intercept == 0.0 && p.ohmic_resistance == 0.0;
-        p.validate().is_ok() && self.settings.config().is_ok_and(|c| c.is_single_module() || !power_without_curve)
+        p.validate().is_ok() && self.file.is_empty() && self.settings.config().is_ok_and(|c| c.is_single_module() || !power_without_curve)
     }
 
     /// Whether a single module, which integrates a setpoint slope, is simulated (also while
     /// the settings are invalid: the FMU then cannot know better).
     fn single_module(&self) -> bool {
-        self.settings.config().map_or(true, |c| c.is_single_module())
+        self.file.is_empty() && !self.settings.power_input && self.settings.config().map_or(true, |c| c.is_single_module())
     }
 }
 
@@ -445,6 +449,17 @@ impl Harness {
                     let s = fmi2GetInteger(c, vrs.as_ptr(), 1, &mut back);
                     if *vr != 300 && self.allowed(&[Init, Step, Terminated]) && (self.view.state != Init || self.view.initialisable()) {
                         prop_assert!(is_ok(s), "getInteger {} in {:?}", vr, self.view.state);
+                    }
+                }
+                Op::SetFile { path } => {
+                    let vrs = [StringVariable::ModuleParameterFile.value_reference()];
+                    let text = path.map(|p| CString::new(p).unwrap());
+                    let values = [text.as_ref().map_or(null(), |t| t.as_ptr())];
+                    let s = fmi2SetString(c, vrs.as_ptr(), 1, values.as_ptr());
+                    let valid = self.allowed(&[Instantiated, Init]) && path.is_some();
+                    prop_assert_eq!(is_ok(s), valid, "{:?} in {:?}", op, self.view.state);
+                    if valid {
+                        self.view.file = path.unwrap_or_default().to_string();
                     }
                 }
                 Op::Unsupported { which } => {

@@ -349,9 +349,8 @@ impl Instance {
     /// fmi2SetRealInputDerivatives: first derivatives of the input for the next step; all
     /// values are checked before any is applied.
     pub fn set_input_derivatives(&mut self, vrs: &[u32], orders: &[i32], values: &[f64]) -> CallResult {
-        let config = self.config();
         let single = self.single_module();
-        let power_input = config.as_ref().is_some_and(|c| c.power_input);
+        let power_input = self.settings.power_input;
         let mut slope = self.setpoint_slope;
         let mut ignored = Vec::new();
         for ((vr, order), value) in vrs.iter().zip(orders).zip(values) {
@@ -401,7 +400,11 @@ impl Instance {
     fn single_module(&self) -> bool {
         match &self.plant {
             Some((_, plant)) => plant.takes_setpoint_slope(),
-            None => self.module_parameter_file.is_empty() && self.config().is_none_or(|c| c.is_single_module()),
+            None => {
+                self.module_parameter_file.is_empty()
+                    && !self.settings.power_input
+                    && self.config().is_none_or(|c| c.is_single_module())
+            }
         }
     }
 
