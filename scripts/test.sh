@@ -6,6 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
+cargo build --release --bins --locked
 .venv/bin/python packaging/package.py
 cargo test --locked
 .venv/bin/python -m pytest tests/python -q
