@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Benchmarks (printed figures): the Rust model and C ABI in process, then fmpy and the
-# Python/SciPy peer in the same run.
+# Python/SciPy peer in the same run, and the NREL electrolyzer package as peer of the hub.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -10,7 +10,9 @@ cargo bench --locked --bench model_step -- --json target/bench/rust.json
 echo "== fmpy and Python/SciPy"
 .venv/bin/python bench/fmpy_bench.py --rust target/bench/rust.json
 echo "== hub of 25 000 modules (cargo bench --bench hub; then the equal hub through fmpy)"
-cargo bench --locked --bench hub
+cargo bench --locked --bench hub | tee target/bench/hub.txt
 .venv/bin/python bench/hub_fmpy.py
+echo "== the NREL electrolyzer package (PyPI) as peer, against the equal hub through fmpy"
+bash bench/nrel_bench.sh
 echo "== aem-identify against its Python/SciPy peer"
 bash bench/identify_bench.sh
