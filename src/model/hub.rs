@@ -239,16 +239,19 @@ impl Hub {
             return Err(StepError::Overflow(h));
         }
         let n = self.target_count(demand);
-        self.rebalance(n);
-        self.running_target = n;
-        // The demand is shared by the dispatched modules that carry current; starting modules
-        // take their share when their start completes. That instant is known in advance, so
-        // the step is cut there and the shares recomputed: still exact, still independent of
-        // the communication step size.
         let mut totals = self.totals;
+        if self.rebalance(n) {
+            self.settle(&mut totals);
+        }
+        self.running_target = n;
+        // The demand is shared by the dispatched modules that carry current, and a power
+        // reference is what is left after the start-up and standby power of the others: the
+        // hub draws the reference. Both change when a start completes or a standby or stop
+        // ends; those instants are known in advance, so the step is cut there and the shares
+        // recomputed: still exact, still independent of the communication step size.
         let mut left = h;
         while left > 0.0 {
-            let piece = self.next_start_completion().filter(|t| *t < left).unwrap_or(left);
+            let piece = self.next_event().filter(|t| *t < left).unwrap_or(left);
             self.advance_groups(demand, n, piece, &mut totals);
             left -= piece;
         }
@@ -260,30 +263,47 @@ impl Hub {
         Ok(())
     }
 
-    /// Time until the first dispatched module that is not yet carrying current completes its
-    /// start [s] (a module stopping first waits out its blowdown, then starts cold).
-    fn next_start_completion(&self) -> Option<f64> {
-        let op = &self.config.operation;
-        self.groups
-            .iter()
-            .filter(|g| g.active)
-            .filter_map(|g| match g.unit.state {
-                OperatingState::Curve => Some(g.unit.timer),
-                OperatingState::Idle => Some(op.cold_start_time),
-                OperatingState::Standby => Some(op.warm_start_time),
-                OperatingState::Blowdown => Some(g.unit.timer + op.cold_start_time),
-                OperatingState::Steady => None,
-            })
-            .reduce(f64::min)
+    /// Time until the next end of a start, a standby or a stop [s]: the next instant at
+    /// which the modules carrying current, or the power drawn by the others, change.
+    fn next_event(&self) -> Option<f64> {
+        use OperatingState::*;
+        self.groups.iter().filter(|g| matches!(g.unit.state, Curve | Standby | Blowdown)).map(|g| g.unit.timer).reduce(f64::min)
+    }
+
+    /// Applies the transitions a new dispatch causes at once (a start from Idle or Standby, a
+    /// stop to Standby or Blowdown, an abandoned start), counting the starts.
+    fn settle(&mut self, totals: &mut HubTotals) {
+        let op = self.config.operation;
+        for g in self.groups.iter_mut() {
+            let ty = &mut self.types[g.kind as usize];
+            let command = if g.active { Command::Run(ty.params.min_setpoint) } else { Command::Stop };
+            let t = g.unit.advance(&ty.params, &ty.dynamics, &mut ty.factors, &op, command, 0.0);
+            totals.starts += g.count as u64 * t.starts as u64;
+            if self.config.policy == DispatchPolicy::Rotation {
+                g.starts += t.starts as u64;
+            }
+        }
     }
 
     /// Advances every group by `piece` seconds, the demand shared by the dispatched modules
-    /// that carry current now (by all `n` dispatched while none does).
+    /// that carry current now (by all `n` dispatched while none does); a power reference less
+    /// the power of the modules that carry none.
     fn advance_groups(&mut self, demand: Demand, n: u32, piece: f64, totals: &mut HubTotals) {
-        let carrying: u32 = self.groups.iter().filter(|g| g.active && g.unit.state == OperatingState::Steady).map(|g| g.count).sum();
-        let sharing = if carrying > 0 { carrying } else { n.max(1) };
-        let rotation = self.config.policy == DispatchPolicy::Rotation;
         let op = self.config.operation;
+        let (mut carrying, mut others) = (0u32, 0.0);
+        for g in &self.groups {
+            if g.active && g.unit.state == OperatingState::Steady {
+                carrying += g.count;
+            } else {
+                others += g.count as f64 * g.unit.power(&self.types[g.kind as usize].params, &op);
+            }
+        }
+        let sharing = if carrying > 0 { carrying } else { n.max(1) };
+        let demand = match demand {
+            Demand::Power(p) => Demand::Power((p - others).max(0.0)),
+            setpoint => setpoint,
+        };
+        let rotation = self.config.policy == DispatchPolicy::Rotation;
         let shared_u = if self.types.len() == 1 { self.module_setpoint(0, demand, sharing) } else { 0.0 };
         for gi in 0..self.groups.len() {
             let g = self.groups[gi];
@@ -317,10 +337,10 @@ impl Hub {
     /// a start complete); under
     /// `Rotation`, fewest running hours then starts first (to stop: most). Ties are broken by
     /// state contents, never by position, so the choice does not depend on grouping.
-    fn rebalance(&mut self, target: u32) {
+    fn rebalance(&mut self, target: u32) -> bool {
         let active: u32 = self.groups.iter().filter(|g| g.active).map(|g| g.count).sum();
         if active == target {
-            return;
+            return false;
         }
         let starting = target > active;
         let mut need = if starting { target - active } else { active - target };
@@ -344,6 +364,7 @@ impl Hub {
                 need = 0;
             }
         }
+        true
     }
 
     /// Merges groups of the same parameter set whose modules are in bit-identical states.

@@ -71,14 +71,28 @@ def test_an_equal_hub_of_n_is_exactly_n_times_one_module(driver):
 def test_a_hub_told_a_constant_power_draws_it_in_steady_state(driver, dispatch, below):
     n, target = 25_000, 45e6
     d = hub(driver, power=30e6, integers=dict(nModules=n, dispatch=dispatch, belowMinimum=below), booleans=dict(powerInput=True))
-    run(d, 3600, 10.0, powerReference=target)
-    standing = STANDBY_POWER * integers(d, "modulesStandby", "modulesStopping")[0]  # modules kept warm draw too
-    assert d.get("hubPower") - standing == pytest.approx(target, rel=1e-3)
+    run(d, 3000, 10.0, powerReference=target)
+    # The whole hub draws the reference: modules kept warm draw standbyPower, the running ones
+    # the rest.
+    assert d.get("hubPower") == pytest.approx(target, rel=1e-3)
     running = integers(d, "modulesRunning")[0]
     if dispatch == 1:
         assert running == n
     else:
         assert running == math.ceil(target / module_power(100.0))
+
+
+
+def test_modules_kept_warm_draw_from_the_reference(driver):
+    n = 1000
+    d = hub(driver, power=2.0e6, integers=dict(nModules=n, dispatch=2, belowMinimum=1), booleans=dict(powerInput=True))
+    run(d, 2400, 10.0, powerReference=1.0e6)  # about half the running modules go to standby
+    running, standby = integers(d, "modulesRunning", "modulesStandby")
+    assert standby > 300 and running + standby == math.ceil(2.0e6 / module_power(100.0))
+    assert d.get("hubPower") == pytest.approx(1.0e6, rel=1e-9)
+    # The running modules draw the reference less the standby power, shared equally.
+    share = (1.0e6 - STANDBY_POWER * standby) / running
+    assert d.get("voltage") * d.get("current") * n / running == pytest.approx(share, rel=1e-6)
 
 
 def test_sequential_dispatch_reaches_loads_an_equal_hub_cannot(driver):
