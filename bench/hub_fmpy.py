@@ -4,24 +4,14 @@ Prints wall seconds per simulated day. Run by scripts/bench.sh after packaging t
 import time
 from pathlib import Path
 
-import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
+
+from wind_reference import wind_reference  # bench/, the script's own folder
 
 ROOT = Path(__file__).resolve().parents[1]
 FMU = ROOT / "target" / "fmu" / "AemElectrolyser.fmu"
 DAY, MODULES = 86_400, 25_000
-
-
-def wind_reference(n, rated, seed=42):
-    """Mean-reverting random walk between 5 % and 100 % of `rated` [W] (like bench/hub.rs)."""
-    rng = np.random.default_rng(seed)
-    x, out = 0.6, np.empty(n)
-    steps = rng.random(n) - 0.5
-    for k in range(n):
-        x = min(max(x + 0.001 * (0.6 - x) + 0.01 * steps[k], 0.05), 1.0)
-        out[k] = x * rated
-    return out
 
 
 def main():

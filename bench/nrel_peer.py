@@ -23,7 +23,7 @@ Settings (and why):
   can run them all above turndown), the nearest to our `equal` hub dispatch; --control picks
   another of the package's controllers (e.g. BaselineDeg, the example's).
 - initialize = True at the reference's first value, as our hub starts in steady state.
-- reference: wind_reference of bench/hub_fmpy.py (same seed and walk), scaled to 60 MW.
+- reference: bench/wind_reference.py, as for bench/hub_fmpy.py (same seed and walk), scaled to 60 MW.
 - horizon: the full day by default (20 min or more on the 2-core dev machine); --hours H < 24
   extrapolates, which gives only a lower bound (below).
 - timed: the Supervisor.run_control loop (the loop inside the package's run_electrolyzer),
@@ -41,24 +41,13 @@ import platform
 import time
 
 import numpy as np
-
 from electrolyzer.simulation.supervisor import Supervisor
 from electrolyzer.tools.design.optimization import calc_rated_system
 from electrolyzer.tools.validation import load_modeling_yaml
 
+from wind_reference import wind_reference  # bench/, the script's own folder
+
 DAY, N_STACKS, PLANT_MW = 86_400, 60, 60.0
-
-
-def wind_reference(n, rated, seed=42):
-    """Mean-reverting random walk between 5 % and 100 % of `rated` [W]; identical to
-    wind_reference of bench/hub_fmpy.py (kept in step by hand: that file needs fmpy)."""
-    rng = np.random.default_rng(seed)
-    x, out = 0.6, np.empty(n)
-    steps = rng.random(n) - 0.5
-    for k in range(n):
-        x = min(max(x + 0.001 * (0.6 - x) + 0.01 * steps[k], 0.05), 1.0)
-        out[k] = x * rated
-    return out
 
 
 def plant(control, initial_power_w):
