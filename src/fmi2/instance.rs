@@ -203,11 +203,16 @@ impl Instance {
 
     /// The value of one Real variable.
     fn real(&self, var: RealVariable) -> Result<f64, String> {
-        let (mut params, mut settings, mut inputs) = (self.params, self.settings, self.inputs);
         let value = match var.causality() {
-            Causality::Input => real_input_mut(&mut inputs, var).map(|v| *v),
-            Causality::Parameter => real_parameter_mut(&mut params, &mut settings, var).map(|v| *v),
             Causality::Output => self.with_plant(var.name(), |plant| real_output(var, plant))?,
+            Causality::Input => {
+                let mut inputs = self.inputs;
+                real_input_mut(&mut inputs, var).map(|v| *v)
+            }
+            Causality::Parameter => {
+                let (mut params, mut settings) = (self.params, self.settings);
+                real_parameter_mut(&mut params, &mut settings, var).map(|v| *v)
+            }
         };
         value.ok_or_else(|| format!("{} has no value here", var.name()))
     }
