@@ -27,6 +27,8 @@
 static Fmu fmu;
 static LogSink sink;
 static fmi2ValueReference setpoint_vr, output_vrs[N_OUTPUTS];
+/* The hub's Integer settings nModules, dispatch, belowMinimum, and its String moduleParameterFile. */
+static fmi2ValueReference hub_vrs[3], file_vr;
 
 static void die(const char *what) {
     fprintf(stderr, "master: %s\n", what);
@@ -62,6 +64,10 @@ static void lookup_variables(void) {
     };
     setpoint_vr = fmu_value_reference(&fmu, names[0]);
     for (int i = 0; i < N_OUTPUTS; i++) output_vrs[i] = fmu_value_reference(&fmu, names[i + 1]);
+    hub_vrs[0] = fmu_value_reference(&fmu, "nModules");
+    hub_vrs[1] = fmu_value_reference(&fmu, "dispatch");
+    hub_vrs[2] = fmu_value_reference(&fmu, "belowMinimum");
+    file_vr = fmu_value_reference(&fmu, "moduleParameterFile");
 }
 
 static fmi2Component instantiate(const char *name, const char *guid) {
@@ -203,11 +209,23 @@ static void cycle(unsigned long k, enum Inject inject) {
     OK(fmu.SetDebugLogging(c, fmi2True, 1, categories));
     OK(fmu.SetupExperiment(c, fmi2False, 0.0, 0.0, fmi2False, 0.0));
     set_setpoint(c, 60.0 + (double)(k % 41));
+    if (k % 2 == 1) {
+        /* Every other life is a hub of 3 to 7 modules (sequential dispatch, standby below the
+         * minimum): the grouped model's allocations, its String setting and its FMU state. */
+        const fmi2Integer hub_values[] = {3 + (fmi2Integer)(k % 5), 2, 1};
+        OK(fmu.SetInteger(c, hub_vrs, 3, hub_values));
+        fmi2String empty = "";
+        OK(fmu.SetString(c, &file_vr, 1, &empty));
+    }
     OK(fmu.EnterInitializationMode(c));
+    fmi2String file = NULL;
+    OK(fmu.GetString(c, &file_vr, 1, &file));
+    if (file == NULL || file[0] != '\0') die("moduleParameterFile does not read back empty");
     OK(fmu.ExitInitializationMode(c));
 
     double t = 0.0, values[N_OUTPUTS];
-    const double setpoints[] = {100.0, 65.0, 112.0 /* clamped: warning */, 80.0};
+    /* 112 %: clamped (a single module warns); 30 %: a hub stops modules to standby. */
+    const double setpoints[] = {100.0, 65.0, 112.0, k % 2 == 1 ? 30.0 : 80.0};
     for (int i = 0; i < 4; i++) {
         set_setpoint(c, setpoints[i]);
         OK(fmu.DoStep(c, t, 1.5, fmi2True));
