@@ -241,6 +241,8 @@ fn generate(text: &str) -> Result<String, String> {
         .filter_map(|v| v.start.as_deref().map(|s| (screaming(&v.name), (v.ty.rust(), s))))
         .collect();
     for (name, (ty, value)) in starts {
+        // A const's reference is 'static already.
+        let ty = ty.replace("&'static ", "&");
         writeln!(w, "    #[allow(missing_docs)] pub const {name}: {ty} = {value};").unwrap();
     }
     writeln!(w, "}}").unwrap();

@@ -127,6 +127,9 @@ fn run_c_abi(name: &str, dispatch: i32, spread: f64, reference: &[f64], seconds:
 }
 
 fn main() {
+    // `cargo bench --bench hub -- NAME` runs only the cases whose name contains NAME.
+    let filter = std::env::args().skip(1).find(|a| !a.starts_with('-')).unwrap_or_default();
+    let wanted = |name: &str| name.contains(filter.as_str());
     println!("hardware: {}", hardware());
     let base = Parameters::default();
     let rated = MODULES as f64 * power_at_setpoint(&base, base.max_setpoint);
@@ -141,13 +144,25 @@ fn main() {
     match (equal, sequential, individual) {
         (Ok(e), Ok(s), Ok(i)) => {
             println!("one day at 1 s, {MODULES} modules, rated {:.1} MW, wind-like power reference (seed 42)", rated / 1e6);
-            run("equal", e, &reference, 0.5);
-            run("sequential", s, &reference, 1.0);
-            run("individual parameters (eq)", i, &reference, 15.0);
+            if wanted("equal") {
+                run("equal", e, &reference, 0.5);
+            }
+            if wanted("sequential") {
+                run("sequential", s, &reference, 1.0);
+            }
+            if wanted("individual parameters (eq)") {
+                run("individual parameters (eq)", i, &reference, 15.0);
+            }
             println!("the same through the FMU's C interface:");
-            run_c_abi("C ABI equal", 1, 0.0, &reference, DAY, 0.5);
-            run_c_abi("C ABI sequential", 2, 0.0, &reference, DAY, 1.0);
-            run_c_abi("C ABI individual parameters", 1, 0.03, &reference, 3 * 3600, 15.0);
+            if wanted("C ABI equal") {
+                run_c_abi("C ABI equal", 1, 0.0, &reference, DAY, 0.5);
+            }
+            if wanted("C ABI sequential") {
+                run_c_abi("C ABI sequential", 2, 0.0, &reference, DAY, 1.0);
+            }
+            if wanted("C ABI individual parameters") {
+                run_c_abi("C ABI individual parameters", 1, 0.03, &reference, 3 * 3600, 15.0);
+            }
         }
         (e, s, i) => eprintln!("cannot build the hubs: {:?} {:?} {:?}", e.err(), s.err(), i.err()),
     }

@@ -112,13 +112,14 @@ pub fn running_count(policy: DispatchPolicy, modules: u32, total: f64, limits: L
 
 /// Setpoint [%] at which a module's steady stack power is `power` [W]: the positive root of
 /// P = (V0 + R·I)·I, I = 2P / (V0 + √(V0² + 4RP)) (the cancellation-free form, also valid
-/// for R = 0), divided by K. Negative powers give 0.
+/// for R = 0), divided by K: u = 2P / (K·(V0 + √(V0² + 4RP))), one division. Negative powers
+/// give 0.
 pub fn setpoint_for_power(params: &Parameters, power: f64) -> f64 {
     let p = power.max(0.0);
     let v0 = params.voltage_intercept;
-    let current = 2.0 * p / (v0 + (v0 * v0 + 4.0 * params.ohmic_resistance * p).sqrt());
-    if current.is_finite() {
-        current / params.gain
+    let u = 2.0 * p / (params.gain * (v0 + (v0 * v0 + 4.0 * params.ohmic_resistance * p).sqrt()));
+    if u.is_finite() {
+        u
     } else {
         0.0
     }

@@ -19,7 +19,7 @@ use super::parameters::Parameters;
 use super::roots::monotone_root;
 
 /// Dynamic state of the current: modal states and the limited current, all [A].
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CurrentState {
     /// Fast modal state z1 (pole τp1) [A].
     pub z1: f64,
@@ -76,12 +76,114 @@ struct Decay {
 pub struct StepFactors {
     h: f64,
     decay: Decay,
+    tracking: TrackingStep,
 }
 
 impl Default for StepFactors {
     fn default() -> Self {
         // NaN never compares equal, so the first step always computes its factors.
-        StepFactors { h: f64::NAN, decay: Decay { e1: 1.0, e2: 1.0, d1: 0.0, d2: 0.0, d12: 0.0 } }
+        let tracking = TrackingStep { h: f64::NAN, ..TrackingStep::ZERO };
+        StepFactors { h: f64::NAN, decay: Decay { e1: 1.0, e2: 1.0, d1: 0.0, d2: 0.0, d12: 0.0 }, tracking }
+    }
+}
+
+/// Weights of the closed-form integrals over a tracking segment with decay `Decay`
+/// (see [`CurrentDynamics::track_integrals`]): ∫I_tf = yL + w1 δ1 + w2 δ2 and
+/// ∫I_tf² = y²L + 2y(w1 δ1 + w2 δ2) + q11 δ1² + q22 δ2² + q12 δ1 δ2, all [s].
+#[derive(Clone, Copy, Debug)]
+struct Weights {
+    w1: f64,
+    w2: f64,
+    q11: f64,
+    q22: f64,
+    q12: f64,
+}
+
+/// One exact step of fixed length h at a constant setpoint in the common case: the current
+/// tracks I_tf at the start and I_tf cannot rise faster than the ramp limit during the step
+/// (its largest slope, Σ max(−λi·ci·δi, 0), is at most r), so I = I_tf throughout. Branch-free,
+/// so that the scalar path and the four-lane kernel ([`super::lanes`]) run the same arithmetic
+/// and give bit-identical results.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrackingStep {
+    /// K [A/%].
+    pub gain: f64,
+    /// Modal weights a, b of I_tf = a·z1 + b·z2.
+    pub a: f64,
+    pub b: f64,
+    /// e^(−λi h).
+    pub e1: f64,
+    pub e2: f64,
+    /// Integral weights at h [s] (see [`Weights`]).
+    pub w1: f64,
+    pub w2: f64,
+    pub q11: f64,
+    pub q22: f64,
+    pub q12: f64,
+    /// −λ1·a, −λ2·b [1/s]: I_tf's initial slope per unit of modal deviation.
+    pub rise1: f64,
+    pub rise2: f64,
+    /// Ramp limit r [A/s].
+    pub ramp: f64,
+    /// Step length h [s].
+    pub h: f64,
+}
+
+/// The outcome of [`TrackingStep::step`]; meaningful only where `tracks` holds.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TrackedStep {
+    /// The state at the end of the step.
+    pub state: CurrentState,
+    /// ∫I dt [A·s].
+    pub charge: f64,
+    /// ∫I² dt [A²·s].
+    pub current_squared: f64,
+    /// The step was in the common case (the other fields are the exact result).
+    pub tracks: bool,
+}
+
+impl TrackingStep {
+    /// All zero (padding lanes).
+    pub const ZERO: TrackingStep = TrackingStep {
+        gain: 0.0,
+        a: 0.0,
+        b: 0.0,
+        e1: 0.0,
+        e2: 0.0,
+        w1: 0.0,
+        w2: 0.0,
+        q11: 0.0,
+        q22: 0.0,
+        q12: 0.0,
+        rise1: 0.0,
+        rise2: 0.0,
+        ramp: 0.0,
+        h: 0.0,
+    };
+
+    /// The step from `state` with setpoint `u` [%] (already clamped) held for h:
+    ///   δi = zi − K u,  zi ← K u + δi e^(−λi h),  I ← a z1 + b z2,
+    ///   ∫I = K u h + w1 δ1 + w2 δ2,  ∫I² = (K u)² h + 2 K u (w1 δ1 + w2 δ2) + q11 δ1² + q22 δ2² + q12 δ1 δ2.
+    #[inline(always)]
+    pub fn step(&self, state: &CurrentState, u: f64) -> TrackedStep {
+        let base = self.gain * u;
+        let (dev1, dev2) = (state.z1 - base, state.z2 - base);
+        let tf0 = base + self.a * dev1 + self.b * dev2;
+        let at_tf = tf0 - state.current <= 1e-12 * tf0.abs().max(1.0);
+        let max_rise = (self.rise1 * dev1).max(0.0) + (self.rise2 * dev2).max(0.0);
+        let z1 = base + dev1 * self.e1;
+        let z2 = base + dev2 * self.e2;
+        let lin = self.w1 * dev1 + self.w2 * dev2;
+        TrackedStep {
+            state: CurrentState { z1, z2, current: self.a * z1 + self.b * z2 },
+            charge: base * self.h + lin,
+            current_squared: base * base * self.h
+                + 2.0 * base * lin
+                + self.q11 * dev1 * dev1
+                + self.q22 * dev2 * dev2
+                + self.q12 * dev1 * dev2,
+            tracks: at_tf & (max_rise <= self.ramp),
+        }
     }
 }
 
@@ -126,6 +228,43 @@ impl CurrentDynamics {
         Decay { e1: 1.0 + m1, e2: 1.0 + m2, d1: -m1, d2: -m2, d12: -(m1 + m2 + m1 * m2) }
     }
 
+    /// w1 = a τp1 (1 − e1), w2 = b τp2 (1 − e2), q11 = a²τp1/2 (1 − e1)(1 + e1),
+    /// q22 = b²τp2/2 (1 − e2)(1 + e2), q12 = 2ab/(λ1 + λ2) (1 − e1 e2) [s].
+    fn weights(&self, d: &Decay) -> Weights {
+        Weights {
+            w1: self.k1 * d.d1,
+            w2: self.k2 * d.d2,
+            q11: self.k11 * d.d1 * (1.0 + d.e1),
+            q22: self.k22 * d.d2 * (1.0 + d.e2),
+            q12: self.k12 * d.d12,
+        }
+    }
+
+    /// The constants of a tracking step of length `h` [s].
+    pub fn tracking_step(&self, h: f64) -> TrackingStep {
+        self.tracking_from(h, &self.decay(h))
+    }
+
+    fn tracking_from(&self, h: f64, d: &Decay) -> TrackingStep {
+        let w = self.weights(d);
+        TrackingStep {
+            gain: self.gain,
+            a: self.a,
+            b: self.b,
+            e1: d.e1,
+            e2: d.e2,
+            w1: w.w1,
+            w2: w.w2,
+            q11: w.q11,
+            q22: w.q22,
+            q12: w.q12,
+            rise1: -self.lambda1 * self.a,
+            rise2: -self.lambda2 * self.b,
+            ramp: self.ramp,
+            h,
+        }
+    }
+
     /// ∫I dt and ∫I² dt over a tracking segment of length L on which
     /// I_tf(σ) = y + sσ + a δ1 e^(−λ1 σ) + b δ2 e^(−λ2 σ). With Δi = δi(1 − e^(−λi L)) and
     /// Ji = ∫₀ᴸ σ e^(−λi σ) dσ = τi² (1 − (1 + λi L) e^(−λi L)):
@@ -136,15 +275,10 @@ impl CurrentDynamics {
     #[inline]
     #[allow(clippy::too_many_arguments)]
     fn track_integrals(&self, y: f64, s: f64, dev1: f64, dev2: f64, length: f64, decay: &Decay) -> (f64, f64) {
-        let drop1 = dev1 * decay.d1;
-        let drop2 = dev2 * decay.d2;
-        let lin = self.k1 * drop1 + self.k2 * drop2;
+        let w = self.weights(decay);
+        let lin = w.w1 * dev1 + w.w2 * dev2;
         let mut charge = y * length + lin;
-        let mut squared = y * y * length
-            + 2.0 * y * lin
-            + self.k11 * drop1 * (dev1 + dev1 * decay.e1)
-            + self.k22 * drop2 * (dev2 + dev2 * decay.e2)
-            + self.k12 * dev1 * dev2 * decay.d12;
+        let mut squared = y * y * length + 2.0 * y * lin + w.q11 * dev1 * dev1 + w.q22 * dev2 * dev2 + w.q12 * dev1 * dev2;
         if s != 0.0 {
             let (l2, l3) = (length * length, length * length * length);
             let j1 = self.tau1 * self.tau1 * ramp_moment(self.lambda1 * length, decay.e1);
@@ -166,7 +300,13 @@ impl CurrentDynamics {
         factors: &mut StepFactors,
     ) -> CurrentIntegrals {
         if factors.h != h {
-            *factors = StepFactors { h, decay: self.decay(h) };
+            let decay = self.decay(h);
+            *factors = StepFactors { h, decay, tracking: self.tracking_from(h, &decay) };
+        }
+        let fast = factors.tracking.step(state, u);
+        if fast.tracks {
+            *state = fast.state;
+            return CurrentIntegrals { charge: fast.charge, current_squared: fast.current_squared, ramp_time: 0.0 };
         }
         let decay = factors.decay;
         self.advance_segment(state, u, 0.0, h, &decay)

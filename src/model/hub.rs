@@ -15,6 +15,7 @@ use std::cmp::Ordering;
 
 use super::dispatch::{power_at_setpoint, running_count, setpoint_for_power, Demand, DispatchPolicy, Limits};
 use super::dynamics::{CurrentDynamics, StepFactors};
+use super::lanes::{LaneBank, LaneOutcome, Share};
 use super::module::StepError;
 use super::operation::{BelowMinimum, Command, OperatingState, OperationParameters, UnitState};
 use super::parameters::{ParameterError, Parameters};
@@ -86,6 +87,16 @@ pub struct HubTotals {
     pub starts: u64,
 }
 
+impl HubTotals {
+    /// Adds the energy, hydrogen, running time and starts of a chunk's part.
+    fn add(&mut self, part: &Tally) {
+        self.energy += part.energy;
+        self.h2_produced += part.h2_produced;
+        self.running += part.running;
+        self.starts += part.starts;
+    }
+}
+
 /// The hub: parameter sets, groups, dispatch memory and totals.
 #[derive(Clone, Debug)]
 pub struct Hub {
@@ -99,6 +110,35 @@ pub struct Hub {
     max_power: f64,
     /// Scratch for choosing modules (reused: no allocation once warm).
     order: Vec<u32>,
+    /// With many parameter sets, their tracking-step constants in lanes (built for the step
+    /// length in use; see [`super::lanes`]).
+    lanes: Option<LaneBank>,
+    /// Whether [`Self::lanes`] may be used (tests compare against the scalar path).
+    lanes_enabled: bool,
+    /// Group i holds parameter set i for every i (see [`Self::is_aligned`]).
+    aligned: bool,
+    /// What each chunk of groups did in a piece (scratch, reused).
+    partials: Vec<Tally>,
+    /// The survey of the groups as they are, kept from the last piece (None: survey again).
+    surveyed: Option<Survey>,
+    /// The outputs of the groups as they are, kept from the last piece (None: sum again).
+    read: Option<HubReadings>,
+}
+
+/// From this many parameter sets on, running modules are stepped in lanes.
+const LANES_FROM: usize = 8;
+/// Groups per chunk (a multiple of four lanes): each chunk sums its own totals.
+const CHUNK: usize = 64;
+/// From this many groups (aligned, in lanes) on, chunks are stepped on every core (rayon's
+/// pool; RAYON_NUM_THREADS=1 keeps to one). The sums do not depend on it.
+const PARALLEL_FROM: usize = 4096;
+
+/// What [`Hub::survey`] finds.
+#[derive(Clone, Copy, Debug)]
+struct Survey {
+    carrying: u32,
+    others: f64,
+    next_event: Option<f64>,
 }
 
 impl Hub {
@@ -169,6 +209,12 @@ impl Hub {
             totals: HubTotals::default(),
             max_power,
             order: Vec::new(),
+            lanes: None,
+            lanes_enabled: true,
+            aligned: false,
+            partials: Vec::new(),
+            surveyed: None,
+            read: None,
         };
         let n = hub.target_count(demand);
         hub.running_target = n;
@@ -188,6 +234,7 @@ impl Hub {
                 hub.groups.push(Group { count: per_type_count - on, kind: kind as u32, active: false, unit, running: 0.0, starts: 0 });
             }
         }
+        hub.aligned = hub.is_aligned();
         Ok(hub)
     }
 
@@ -242,6 +289,9 @@ impl Hub {
         let mut totals = self.totals;
         if self.rebalance(n) {
             self.settle(&mut totals);
+            self.aligned = self.is_aligned();
+            self.surveyed = None;
+            self.read = None;
         }
         self.running_target = n;
         // The demand is shared by the dispatched modules that carry current, and a power
@@ -251,23 +301,43 @@ impl Hub {
         // recomputed: still exact, still independent of the communication step size.
         let mut left = h;
         while left > 0.0 {
-            let piece = self.next_event().filter(|t| *t < left).unwrap_or(left);
-            self.advance_groups(demand, n, piece, &mut totals);
+            let survey = self.surveyed.take().unwrap_or_else(|| self.survey());
+            let piece = survey.next_event.filter(|t| *t < left).unwrap_or(left);
+            self.surveyed = Some(self.advance_groups(demand, n, &survey, piece, piece == h, &mut totals));
             left -= piece;
         }
         totals.time += h;
         self.totals = totals;
         if self.groups.len() > self.types.len() {
             self.merge();
+            self.aligned = self.is_aligned();
+            self.surveyed = None;
+            self.read = None;
         }
         Ok(())
     }
 
-    /// Time until the next end of a start, a standby or a stop [s]: the next instant at
-    /// which the modules carrying current, or the power drawn by the others, change.
-    fn next_event(&self) -> Option<f64> {
-        use OperatingState::*;
-        self.groups.iter().filter(|g| matches!(g.unit.state, Curve | Standby | Blowdown)).map(|g| g.unit.timer).reduce(f64::min)
+    /// One pass over the groups: the modules carrying current (dispatched and Steady), the
+    /// power of the others [W], and the time until the next end of a start, a standby or a
+    /// stop [s] (the next instant at which either changes). Summed by chunks as
+    /// [`Self::advance_groups`] sums it after a piece, so that either gives the same bits.
+    fn survey(&self) -> Survey {
+        let op = &self.config.operation;
+        let mut out = Survey::new();
+        for gs in self.groups.chunks(CHUNK) {
+            let mut t = Tally::default();
+            for g in gs {
+                t.observe(g, &self.types[g.kind as usize].params, op);
+            }
+            out.add(&t);
+        }
+        out
+    }
+
+    /// Group i holds the modules of parameter set i, for every i (always so with a parameter
+    /// set per module): groups and sets can then be split alike.
+    fn is_aligned(&self) -> bool {
+        self.groups.len() == self.types.len() && self.groups.iter().enumerate().all(|(i, g)| g.kind as usize == i)
     }
 
     /// Applies the transitions a new dispatch causes at once (a start from Idle or Standby, a
@@ -287,47 +357,82 @@ impl Hub {
 
     /// Advances every group by `piece` seconds, the demand shared by the dispatched modules
     /// that carry current now (by all `n` dispatched while none does); a power reference less
-    /// the power of the modules that carry none.
-    fn advance_groups(&mut self, demand: Demand, n: u32, piece: f64, totals: &mut HubTotals) {
-        let op = self.config.operation;
-        let (mut carrying, mut others) = (0u32, 0.0);
-        for g in &self.groups {
-            if g.active && g.unit.state == OperatingState::Steady {
-                carrying += g.count;
-            } else {
-                others += g.count as f64 * g.unit.power(&self.types[g.kind as usize].params, &op);
-            }
-        }
-        let sharing = if carrying > 0 { carrying } else { n.max(1) };
+    /// the power of the modules that carry none. `whole`: the piece is the whole step.
+    ///
+    /// Groups go in chunks of [`CHUNK`], each summing its own totals, added in order: the
+    /// same sums whichever path steps a group. Returns the survey of the groups after it.
+    fn advance_groups(&mut self, demand: Demand, n: u32, survey: &Survey, piece: f64, whole: bool, totals: &mut HubTotals) -> Survey {
+        let sharing = if survey.carrying > 0 { survey.carrying } else { n.max(1) };
         let demand = match demand {
-            Demand::Power(p) => Demand::Power((p - others).max(0.0)),
+            Demand::Power(p) => Demand::Power((p - survey.others).max(0.0)),
             setpoint => setpoint,
         };
+        let share = match demand {
+            Demand::Setpoint(_) => Share::Setpoint(self.module_setpoint(0, demand, sharing)),
+            Demand::Power(p) => Share::Power(p / sharing as f64),
+        };
+        let common = match share {
+            Share::Setpoint(u) => Some(u),
+            Share::Power(_) if self.types.len() == 1 => Some(self.module_setpoint(0, demand, sharing)),
+            Share::Power(_) => None,
+        };
         let rotation = self.config.policy == DispatchPolicy::Rotation;
-        let shared_u = if self.types.len() == 1 { self.module_setpoint(0, demand, sharing) } else { 0.0 };
-        for gi in 0..self.groups.len() {
-            let g = self.groups[gi];
-            let kind = g.kind as usize;
-            let command = if g.active {
-                Command::Run(if self.types.len() == 1 { shared_u } else { self.module_setpoint(kind, demand, sharing) })
-            } else {
-                Command::Stop
+        let step = Stepper { share, common, piece, rotation, op: self.config.operation };
+        let use_lanes = self.lanes_enabled && whole && self.aligned && self.types.len() >= LANES_FROM;
+        if use_lanes && self.lanes.as_ref().is_none_or(|bank| bank.h() != piece) {
+            self.lanes = Some(LaneBank::new(self.types.iter().map(|t| (&t.params, &t.dynamics)), piece));
+        }
+        let Hub { groups, types, lanes, partials, .. } = self;
+        if let Some(bank) = lanes.as_ref().filter(|_| use_lanes) {
+            // Aligned: chunk c of the groups is stepped with chunk c of the parameter sets.
+            let chunk_step = |c: usize, gs: &mut [Group], ts: &mut [ModuleType], part: &mut Tally| {
+                let mut outcomes = [LaneOutcome::default(); CHUNK];
+                let outcomes = &mut outcomes[..gs.len()];
+                bank.step(c * CHUNK, gs, share, |g: &Group| g.unit.current, outcomes);
+                let mut tally = Tally::default();
+                for ((g, ty), o) in gs.iter_mut().zip(ts.iter_mut()).zip(outcomes.iter()) {
+                    if g.active && g.unit.state == OperatingState::Steady && o.step.tracks {
+                        step.apply(g, o, &mut tally);
+                    } else {
+                        step.advance(ty, g, &mut tally);
+                    }
+                }
+                *part = tally;
             };
-            let ty = &mut self.types[kind];
-            let mut unit = g.unit;
-            let t = unit.advance(&ty.params, &ty.dynamics, &mut ty.factors, &op, command, piece);
-            let c = g.count as f64;
-            totals.energy += c * t.energy;
-            totals.h2_produced += c * (ty.h2_per_coulomb * t.charge);
-            totals.running += c * t.running;
-            totals.starts += g.count as u64 * t.starts as u64;
-            let group = &mut self.groups[gi];
-            group.unit = unit;
-            if rotation {
-                group.running += t.running;
-                group.starts += t.starts as u64;
+            partials.resize(groups.len().div_ceil(CHUNK), Tally::default());
+            if groups.len() >= PARALLEL_FROM {
+                use rayon::prelude::*;
+                groups
+                    .par_chunks_mut(CHUNK)
+                    .zip(types.par_chunks_mut(CHUNK))
+                    .zip(partials.par_iter_mut())
+                    .with_min_len(16)
+                    .enumerate()
+                    .for_each(|(c, ((gs, ts), part))| chunk_step(c, gs, ts, part));
+            } else {
+                let chunks = groups.chunks_mut(CHUNK).zip(types.chunks_mut(CHUNK)).zip(partials.iter_mut());
+                for (c, ((gs, ts), part)) in chunks.enumerate() {
+                    chunk_step(c, gs, ts, part);
+                }
+            }
+        } else {
+            partials.clear();
+            for gs in groups.chunks_mut(CHUNK) {
+                let mut tally = Tally::default();
+                for g in gs {
+                    step.advance(&mut types[g.kind as usize], g, &mut tally);
+                }
+                partials.push(tally);
             }
         }
+        let (mut survey, mut reading) = (Survey::new(), ReadingSums::default());
+        for part in partials.iter() {
+            totals.add(part);
+            survey.add(part);
+            reading.add(&part.reading);
+        }
+        self.read = Some(reading.readings());
+        survey
     }
 
     /// Switches modules on or off until `target` modules are dispatched to run, preferring
@@ -338,7 +443,8 @@ impl Hub {
     /// `Rotation`, fewest running hours then starts first (to stop: most). Ties are broken by
     /// state contents, never by position, so the choice does not depend on grouping.
     fn rebalance(&mut self, target: u32) -> bool {
-        let active: u32 = self.groups.iter().filter(|g| g.active).map(|g| g.count).sum();
+        // Every step leaves exactly `running_target` modules dispatched (restore checks it too).
+        let active = self.running_target;
         if active == target {
             return false;
         }
@@ -437,6 +543,120 @@ impl Hub {
     }
 }
 
+/// One piece of a step, as every group sees it.
+struct Stepper {
+    /// Per module: a setpoint [%] or a power [W].
+    share: Share,
+    /// The setpoint [%] every running module gets, where it is the same for all.
+    common: Option<f64>,
+    piece: f64,
+    rotation: bool,
+    op: OperationParameters,
+}
+
+impl Stepper {
+    /// The scalar path: one group through its operating states.
+    #[inline]
+    fn advance(&self, ty: &mut ModuleType, g: &mut Group, tally: &mut Tally) {
+        let command = match (g.active, self.share, self.common) {
+            (false, ..) => Command::Stop,
+            (true, _, Some(u)) => Command::Run(u),
+            (true, Share::Setpoint(u), None) => Command::Run(u),
+            (true, Share::Power(p), None) => Command::Run(setpoint_for_power(&ty.params, p)),
+        };
+        let t = g.unit.advance(&ty.params, &ty.dynamics, &mut ty.factors, &self.op, command, self.piece);
+        let c = g.count as f64;
+        tally.energy += c * t.energy;
+        tally.h2_produced += c * (ty.h2_per_coulomb * t.charge);
+        tally.running += c * t.running;
+        tally.starts += g.count as u64 * t.starts as u64;
+        if self.rotation {
+            g.running += t.running;
+            g.starts += t.starts as u64;
+        }
+        tally.observe(g, &ty.params, &self.op);
+    }
+
+    /// A Steady group whose step the lanes computed (the same arithmetic as the scalar path).
+    #[inline(always)]
+    fn apply(&self, g: &mut Group, o: &LaneOutcome, tally: &mut Tally) {
+        g.unit.current = o.step.state;
+        let c = g.count as f64;
+        tally.energy += c * o.energy;
+        tally.h2_produced += c * o.hydrogen;
+        tally.running += c * self.piece;
+        if self.rotation {
+            g.running += self.piece;
+        }
+        tally.carrying += g.count;
+        tally.reading.observe_steady(g.count, o.step.state.current, o.power, o.h2_flow, o.voltage);
+    }
+}
+
+/// What a chunk of groups did over a piece of a step, and what it looks like after it.
+#[derive(Clone, Copy, Debug)]
+struct Tally {
+    energy: f64,
+    h2_produced: f64,
+    running: f64,
+    starts: u64,
+    /// Modules dispatched and Steady.
+    carrying: u32,
+    /// Power of the other modules [W].
+    others: f64,
+    /// Time to the next end of a start, standby or stop [s]; infinite if none.
+    next_event: f64,
+    /// The outputs' sums.
+    reading: ReadingSums,
+}
+
+impl Default for Tally {
+    fn default() -> Self {
+        Tally {
+            energy: 0.0,
+            h2_produced: 0.0,
+            running: 0.0,
+            starts: 0,
+            carrying: 0,
+            others: 0.0,
+            next_event: f64::INFINITY,
+            reading: ReadingSums::default(),
+        }
+    }
+}
+
+impl Tally {
+    /// Counts a group as it is now into the survey part.
+    #[inline(always)]
+    fn observe(&mut self, g: &Group, params: &Parameters, op: &OperationParameters) {
+        use OperatingState::*;
+        self.reading.observe(g, params, op);
+        if g.active && g.unit.state == Steady {
+            self.carrying += g.count;
+            return;
+        }
+        self.others += g.count as f64 * g.unit.power(params, op);
+        if matches!(g.unit.state, Curve | Standby | Blowdown) {
+            self.next_event = self.next_event.min(g.unit.timer);
+        }
+    }
+}
+
+impl Survey {
+    fn new() -> Self {
+        Survey { carrying: 0, others: 0.0, next_event: None }
+    }
+
+    /// Adds a chunk's part (chunks in order).
+    fn add(&mut self, t: &Tally) {
+        self.carrying += t.carrying;
+        self.others += t.others;
+        if t.next_event.is_finite() {
+            self.next_event = Some(self.next_event.map_or(t.next_event, |e| e.min(t.next_event)));
+        }
+    }
+}
+
 /// The time-varying part of a hub: with its configuration and parameter sets it determines
 /// the hub completely (for saving and restoring).
 #[derive(Clone, Debug, PartialEq)]
@@ -493,34 +713,98 @@ impl Hub {
         if ![t.time, t.energy, t.h2_produced, t.running].iter().all(|x| x.is_finite()) || snapshot.running_target > self.config.n_modules {
             return Err("the hub's totals or dispatch target are out of range".into());
         }
+        let active: u64 = snapshot.groups.iter().filter(|g| g.active).map(|g| g.count as u64).sum();
+        if active != snapshot.running_target as u64 {
+            return Err(format!("{active} modules are dispatched but the dispatch target is {}", snapshot.running_target));
+        }
         self.groups = snapshot.groups;
         self.running_target = snapshot.running_target;
         self.totals = snapshot.totals;
+        self.aligned = self.is_aligned();
+        self.surveyed = None;
+        self.read = None;
         Ok(())
     }
 
     /// All outputs in one pass over the groups.
     pub fn readings(&self) -> HubReadings {
+        if let Some(r) = self.read {
+            return r;
+        }
         let op = &self.config.operation;
-        let mut r = HubReadings::default();
-        let (mut voltage_sum, mut steady) = (0.0, 0u64);
-        for g in &self.groups {
-            let p = &self.types[g.kind as usize].params;
-            let c = g.count as f64;
-            let i = g.unit.stack_current();
-            r.power += c * g.unit.power(p, op);
-            r.h2_flow += c * p.h2_coefficient * i;
-            r.current += c * i;
-            r.counts[g.unit.state.code() as usize] += g.count;
-            if g.unit.state == OperatingState::Steady {
-                voltage_sum += c * (p.voltage_intercept + p.ohmic_resistance * i);
-                steady += g.count as u64;
+        let mut sum = ReadingSums::default();
+        for gs in self.groups.chunks(CHUNK) {
+            let mut part = ReadingSums::default();
+            for g in gs {
+                part.observe(g, &self.types[g.kind as usize].params, op);
             }
+            sum.add(&part);
         }
-        if steady > 0 {
-            r.voltage = voltage_sum / steady as f64;
+        sum.readings()
+    }
+}
+
+/// Sums behind [`HubReadings`], by chunks of groups in order (the step sums them as it goes,
+/// [`Hub::readings`] when it must: the same bits either way).
+#[derive(Clone, Copy, Debug, Default)]
+struct ReadingSums {
+    power: f64,
+    h2_flow: f64,
+    current: f64,
+    voltage: f64,
+    steady: u64,
+    counts: [u32; 5],
+}
+
+impl ReadingSums {
+    /// A group as it is now.
+    #[inline(always)]
+    fn observe(&mut self, g: &Group, p: &Parameters, op: &OperationParameters) {
+        let i = g.unit.stack_current();
+        if g.unit.state == OperatingState::Steady {
+            let v = p.voltage_intercept + p.ohmic_resistance * i;
+            self.observe_steady(g.count, i, v * i, p.h2_coefficient * i, v);
+        } else {
+            let c = g.count as f64;
+            self.power += c * g.unit.power(p, op);
+            self.h2_flow += c * (p.h2_coefficient * i);
+            self.current += c * i;
+            self.counts[g.unit.state.code() as usize] += g.count;
         }
-        r
+    }
+
+    /// `count` Steady modules at current `i` [A], power (V0 + R·I)·I [W], hydrogen c·I
+    /// [Nl/h] and voltage V0 + R·I [V] each.
+    #[inline(always)]
+    fn observe_steady(&mut self, count: u32, i: f64, power: f64, h2_flow: f64, voltage: f64) {
+        let c = count as f64;
+        self.power += c * power;
+        self.h2_flow += c * h2_flow;
+        self.current += c * i;
+        self.voltage += c * voltage;
+        self.steady += count as u64;
+        self.counts[OperatingState::Steady.code() as usize] += count;
+    }
+
+    fn add(&mut self, part: &ReadingSums) {
+        self.power += part.power;
+        self.h2_flow += part.h2_flow;
+        self.current += part.current;
+        self.voltage += part.voltage;
+        self.steady += part.steady;
+        for (a, b) in self.counts.iter_mut().zip(part.counts) {
+            *a += b;
+        }
+    }
+
+    fn readings(&self) -> HubReadings {
+        HubReadings {
+            power: self.power,
+            h2_flow: self.h2_flow,
+            current: self.current,
+            voltage: if self.steady > 0 { self.voltage / self.steady as f64 } else { 0.0 },
+            counts: self.counts,
+        }
     }
 }
 

@@ -3,7 +3,8 @@
 //! - [`parameters`]: Table I of the paper and its validation.
 //! - [`dynamics`]: setpoint → stack current, G(s) with a rising-rate limit, exact steps.
 //! - [`module`]: one running module: polarisation curve, power, hydrogen, integrals.
-//! - [`hub`]: N modules simulated as groups; [`dispatch`]: who runs at which setpoint.
+//! - [`hub`]: N modules simulated as groups; [`dispatch`]: who runs at which setpoint;
+//!   [`lanes`]: modules with parameters of their own, stepped four at a time.
 //! - [`spread`]: seeded per-module parameter sets.
 //! - [`operation`]: a module's operating states (idle, curve, steady, standby, blowdown).
 //! - [`plant`]: what an FMU instance simulates: one module or a hub, with its settings.
@@ -11,6 +12,7 @@
 pub mod dispatch;
 pub mod dynamics;
 pub mod hub;
+pub mod lanes;
 pub mod module;
 pub mod operation;
 pub mod parameters;

@@ -217,3 +217,80 @@ fn running_modules_carry_the_demand_while_others_start() {
     run(&mut hub, Demand::Power(4.6 * module_max), 3000.0, 10.0);
     assert!((hub.power() - 4.6 * module_max).abs() <= 1e-6 * module_max);
 }
+
+/// A wind-like demand in [0, 1] of the hub at second `t` that dips below every module's
+/// minimum now and then (stops, standby, restarts) and rises fast enough to hit the ramp limit.
+fn gusty(t: usize) -> f64 {
+    let x = t as f64;
+    (0.55 + 0.3 * (x / 97.0).sin() + 0.2 * (x / 13.0).sin() * (x / 411.0).cos()).clamp(0.0, 1.0)
+}
+
+/// Steps `hub` and a copy of it stepped by the scalar path only, with `demand(t)` for
+/// `seconds` steps of `h`, and requires the same bits everywhere after every step.
+fn assert_lanes_match_scalar(hub: Hub, demand: impl Fn(usize) -> Demand, seconds: usize, h: f64) {
+    let mut lanes = hub;
+    let mut scalar = lanes.clone();
+    scalar.lanes_enabled = false;
+    for t in 0..seconds {
+        lanes.step(demand(t), h).unwrap();
+        scalar.step(demand(t), h).unwrap();
+        assert_eq!(lanes.snapshot(), scalar.snapshot(), "t = {t}");
+        assert_eq!(lanes.readings(), scalar.readings(), "t = {t}");
+        let (a, b) = (lanes.totals(), scalar.totals());
+        assert_eq!((a.energy.to_bits(), a.h2_produced.to_bits(), a.running.to_bits()), (b.energy.to_bits(), b.h2_produced.to_bits(), b.running.to_bits()), "t = {t}");
+    }
+    assert!(lanes.lanes.is_some() && scalar.lanes.is_none(), "the lanes were not used");
+}
+
+#[test]
+fn lanes_step_individual_modules_as_the_scalar_path_does_bit_for_bit() {
+    let base = Parameters::default();
+    let n = 37; // not a multiple of four lanes or of a chunk
+    let rated = n as f64 * crate::model::dispatch::power_at_setpoint(&base, 100.0);
+    for (policy, below) in [(DispatchPolicy::Equal, BelowMinimum::Standby), (DispatchPolicy::Sequential, BelowMinimum::Off), (DispatchPolicy::Rotation, BelowMinimum::Standby)] {
+        let sets = crate::model::spread::spread_parameters(&base, n, 0.03, 11);
+        let hub = Hub::with_parameter_sets(sets.clone(), config(n as u32, policy, below), Demand::Power(0.6 * rated)).unwrap();
+        assert_lanes_match_scalar(hub, |t| Demand::Power(gusty(t) * rated), 1500, 1.0);
+        let hub = Hub::with_parameter_sets(sets, config(n as u32, policy, below), Demand::Setpoint(80.0)).unwrap();
+        assert_lanes_match_scalar(hub, |t| Demand::Setpoint(100.0 * gusty(t)), 700, 2.5);
+    }
+}
+
+#[test]
+fn thousands_of_modules_step_on_every_core_with_the_same_bits() {
+    // Above PARALLEL_FROM groups the chunks run on rayon's pool; the sums are still in order.
+    let base = Parameters::default();
+    let n = PARALLEL_FROM + 321;
+    let rated = n as f64 * crate::model::dispatch::power_at_setpoint(&base, 100.0);
+    let sets = crate::model::spread::spread_parameters(&base, n, 0.03, 5);
+    let hub = Hub::with_parameter_sets(sets, config(n as u32, DispatchPolicy::Equal, BelowMinimum::Standby), Demand::Power(0.7 * rated)).unwrap();
+    assert_lanes_match_scalar(hub, |t| Demand::Power(gusty(40 * t) * rated), 60, 1.0);
+}
+
+#[test]
+fn kept_survey_and_readings_are_the_ones_summed_afresh() {
+    let base = Parameters::default();
+    let rated = 40.0 * crate::model::dispatch::power_at_setpoint(&base, 100.0);
+    let sets = crate::model::spread::spread_parameters(&base, 40, 0.03, 2);
+    let mut hub = Hub::with_parameter_sets(sets, config(40, DispatchPolicy::Sequential, BelowMinimum::Standby), Demand::Power(0.5 * rated)).unwrap();
+    for t in 0..900 {
+        hub.step(Demand::Power(gusty(t) * rated), 1.0).unwrap();
+        let kept = (hub.surveyed.expect("a step keeps its survey"), hub.readings());
+        let mut fresh = hub.clone();
+        (fresh.surveyed, fresh.read) = (None, None);
+        let survey = fresh.survey();
+        assert_eq!((kept.0.carrying, kept.0.others.to_bits(), kept.0.next_event.map(f64::to_bits)), (survey.carrying, survey.others.to_bits(), survey.next_event.map(f64::to_bits)), "t = {t}");
+        assert_eq!(kept.1, fresh.readings(), "t = {t}");
+    }
+}
+
+#[test]
+fn a_snapshot_whose_dispatch_target_disagrees_with_its_groups_is_refused() {
+    let mut hub = Hub::new(Parameters::default(), config(10, DispatchPolicy::Sequential, BelowMinimum::Standby), Demand::Setpoint(50.0)).unwrap();
+    let mut snapshot = hub.snapshot();
+    snapshot.running_target += 1;
+    let before = hub.snapshot();
+    let e = hub.restore(snapshot).unwrap_err();
+    assert!(e.contains("dispatch target"), "{e}");
+    assert_eq!(hub.snapshot(), before);
+}

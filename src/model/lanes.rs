@@ -1,0 +1,325 @@
+//! Modules with parameter sets of their own, stepped four at a time.
+//!
+//! A hub whose modules each have their own parameters (nModules groups of one) spends its time
+//! in one place: every running module takes a [`TrackingStep`] every communication step, then
+//! its energy V0·∫I + R·∫I² [J] and hydrogen c/3600·∫I [Nl]. [`LaneBank`] keeps those constants
+//! for four parameter sets side by side (field-major blocks of four lanes, read as one stream),
+//! and the setpoint of a power share P [W] from the inverse polarisation curve,
+//! u = 2P / (K·(V0 + √(V0² + 4RP))) [%], clamped to [minSetpoint, maxSetpoint].
+//!
+//! The compiler turns the four lanes into vector instructions; on x86-64 the loop is compiled a
+//! second time for AVX2 and that copy is chosen at run time when the CPU has it. Each lane runs
+//! exactly the scalar arithmetic of [`TrackingStep::step`] and
+//! [`super::dispatch::setpoint_for_power`] (Rust never fuses a·b + c into one rounding), so
+//! results are bit-identical to the scalar path on every CPU.
+
+use super::dynamics::{CurrentDynamics, CurrentState, TrackedStep, TrackingStep};
+use super::parameters::Parameters;
+
+const LANES: usize = 4;
+type Lane = [f64; LANES];
+
+/// What each running module is asked for this step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Share {
+    /// The same setpoint [%] for every module.
+    Setpoint(f64),
+    /// The same electric power [W] for every module, turned into each module's setpoint.
+    Power(f64),
+}
+
+/// The result for one module: the tracking step, its energy [J] and hydrogen [Nl].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LaneOutcome {
+    /// The step of the current dynamics (use only where `step.tracks`).
+    pub step: TrackedStep,
+    /// V0·∫I dt + R·∫I² dt [J].
+    pub energy: f64,
+    /// c/3600·∫I dt [Nl].
+    pub hydrogen: f64,
+    /// At the end: power (V0 + R·I)·I [W], hydrogen flow c·I [Nl/h], voltage V0 + R·I [V].
+    pub power: f64,
+    pub h2_flow: f64,
+    pub voltage: f64,
+}
+
+/// Constants of four parameter sets at one step length, lane k of block j being set 4j + k.
+#[derive(Clone, Copy, Debug, Default)]
+struct LaneBlock {
+    gain: Lane,
+    a: Lane,
+    b: Lane,
+    e1: Lane,
+    e2: Lane,
+    w1: Lane,
+    w2: Lane,
+    q11: Lane,
+    q22: Lane,
+    q12: Lane,
+    rise1: Lane,
+    rise2: Lane,
+    ramp: Lane,
+    /// V0 [V], R [Ω].
+    v0: Lane,
+    r: Lane,
+    /// minSetpoint, maxSetpoint [%].
+    min: Lane,
+    max: Lane,
+    /// c/3600 [Nl/(A·s)], c [Nl/(h·A)].
+    h2_per_coulomb: Lane,
+    h2_coefficient: Lane,
+}
+
+/// The tracking-step constants of many parameter sets at one step length h, in lanes.
+#[derive(Clone, Debug)]
+pub struct LaneBank {
+    h: f64,
+    sets: usize,
+    blocks: Vec<LaneBlock>,
+}
+
+impl LaneBank {
+    /// The constants of `sets` (parameters with their dynamics) for steps of `h` seconds.
+    pub fn new<'a>(sets: impl ExactSizeIterator<Item = (&'a Parameters, &'a CurrentDynamics)>, h: f64) -> Self {
+        let n = sets.len();
+        let mut blocks = vec![LaneBlock::default(); n.div_ceil(LANES)];
+        for (i, (p, d)) in sets.enumerate() {
+            let (blk, k) = (&mut blocks[i / LANES], i % LANES);
+            let t = d.tracking_step(h);
+            for (lane, value) in [
+                (&mut blk.gain, t.gain),
+                (&mut blk.a, t.a),
+                (&mut blk.b, t.b),
+                (&mut blk.e1, t.e1),
+                (&mut blk.e2, t.e2),
+                (&mut blk.w1, t.w1),
+                (&mut blk.w2, t.w2),
+                (&mut blk.q11, t.q11),
+                (&mut blk.q22, t.q22),
+                (&mut blk.q12, t.q12),
+                (&mut blk.rise1, t.rise1),
+                (&mut blk.rise2, t.rise2),
+                (&mut blk.ramp, t.ramp),
+                (&mut blk.v0, p.voltage_intercept),
+                (&mut blk.r, p.ohmic_resistance),
+                (&mut blk.min, p.min_setpoint),
+                (&mut blk.max, p.max_setpoint),
+                (&mut blk.h2_per_coulomb, p.h2_coefficient / 3600.0),
+                (&mut blk.h2_coefficient, p.h2_coefficient),
+            ] {
+                lane[k] = value;
+            }
+        }
+        LaneBank { h, sets: n, blocks }
+    }
+
+    /// The step length the constants are for [s].
+    pub fn h(&self) -> f64 {
+        self.h
+    }
+
+    /// Number of parameter sets.
+    pub fn sets(&self) -> usize {
+        self.sets
+    }
+
+    /// The tracking steps of `items`, item k being a module of parameter set `first + k`
+    /// (`first` a multiple of four, `first + items.len()` at most [`Self::sets`]) at the state
+    /// `state(item)`, under `share`, into `out[k]`.
+    pub fn step<T, S>(&self, first: usize, items: &[T], share: Share, state: S, out: &mut [LaneOutcome])
+    where
+        S: Fn(&T) -> CurrentState,
+    {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (checked just above), the only requirement of `step_avx2`.
+            unsafe { self.step_avx2(first, items, share, state, out) };
+            return;
+        }
+        self.step_portable(first, items, share, state, out);
+    }
+
+    /// [`Self::step`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn step_avx2<T, S>(&self, first: usize, items: &[T], share: Share, state: S, out: &mut [LaneOutcome])
+    where
+        S: Fn(&T) -> CurrentState,
+    {
+        self.step_lanes(first, items, share, state, out);
+    }
+
+    /// [`Self::step`] for any CPU of the target.
+    pub fn step_portable<T, S>(&self, first: usize, items: &[T], share: Share, state: S, out: &mut [LaneOutcome])
+    where
+        S: Fn(&T) -> CurrentState,
+    {
+        self.step_lanes(first, items, share, state, out);
+    }
+
+    #[inline(always)]
+    fn step_lanes<T, S>(&self, first: usize, items: &[T], share: Share, state: S, out: &mut [LaneOutcome])
+    where
+        S: Fn(&T) -> CurrentState,
+    {
+        assert!(first.is_multiple_of(LANES) && first + items.len() <= self.sets && out.len() >= items.len(), "lanes out of range");
+        let (power, fixed, by_power) = match share {
+            Share::Setpoint(u) => (0.0, u, false),
+            Share::Power(p) => (p, 0.0, true),
+        };
+        let blocks = &self.blocks[first / LANES..];
+        for ((blk, items), out) in blocks.iter().zip(items.chunks(LANES)).zip(out.chunks_mut(LANES)) {
+            let (mut z1, mut z2, mut current) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+            for (k, item) in items.iter().enumerate() {
+                let s = state(item);
+                (z1[k], z2[k], current[k]) = (s.z1, s.z2, s.current);
+            }
+            self.block(blk, by_power, power, fixed, [z1, z2, current], out);
+        }
+    }
+
+    /// Four modules' steps from their states [z1, z2, I], field-major in and out, so that the
+    /// four lanes become vector instructions.
+    #[inline(always)]
+    fn block(&self, blk: &LaneBlock, by_power: bool, power: f64, fixed: f64, [z1, z2, current]: [Lane; 3], out: &mut [LaneOutcome]) {
+        let mut next = [[0.0; LANES]; 3];
+        let (mut charge, mut squared, mut energy, mut hydrogen) = ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        let mut tracks = [false; LANES];
+        let (mut power_end, mut flow_end, mut voltage_end) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        for k in 0..LANES {
+            // u = 2P / (K·(V0 + √(V0² + 4RP))), as `setpoint_for_power` computes it.
+            let p = power.max(0.0);
+            let v0 = blk.v0[k];
+            let from_power = 2.0 * p / (blk.gain[k] * (v0 + (v0 * v0 + 4.0 * blk.r[k] * p).sqrt()));
+            let from_power = if from_power.is_finite() { from_power } else { 0.0 };
+            let u = if by_power { from_power } else { fixed };
+            let t = TrackingStep {
+                gain: blk.gain[k],
+                a: blk.a[k],
+                b: blk.b[k],
+                e1: blk.e1[k],
+                e2: blk.e2[k],
+                w1: blk.w1[k],
+                w2: blk.w2[k],
+                q11: blk.q11[k],
+                q22: blk.q22[k],
+                q12: blk.q12[k],
+                rise1: blk.rise1[k],
+                rise2: blk.rise2[k],
+                ramp: blk.ramp[k],
+                h: self.h,
+            };
+            let state = CurrentState { z1: z1[k], z2: z2[k], current: current[k] };
+            let step = t.step(&state, u.max(blk.min[k]).min(blk.max[k]));
+            next[0][k] = step.state.z1;
+            next[1][k] = step.state.z2;
+            next[2][k] = step.state.current;
+            charge[k] = step.charge;
+            squared[k] = step.current_squared;
+            tracks[k] = step.tracks;
+            energy[k] = blk.v0[k] * step.charge + blk.r[k] * step.current_squared;
+            hydrogen[k] = blk.h2_per_coulomb[k] * step.charge;
+            let i = step.state.current;
+            voltage_end[k] = blk.v0[k] + blk.r[k] * i;
+            power_end[k] = voltage_end[k] * i;
+            flow_end[k] = blk.h2_coefficient[k] * i;
+        }
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = LaneOutcome {
+                step: TrackedStep {
+                    state: CurrentState { z1: next[0][k], z2: next[1][k], current: next[2][k] },
+                    charge: charge[k],
+                    current_squared: squared[k],
+                    tracks: tracks[k],
+                },
+                energy: energy[k],
+                hydrogen: hydrogen[k],
+                power: power_end[k],
+                h2_flow: flow_end[k],
+                voltage: voltage_end[k],
+            };
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::dispatch::setpoint_for_power;
+    use crate::model::spread::spread_parameters;
+
+    /// Eleven parameter sets (not a multiple of four) at states that track, ramp and fall.
+    fn rig() -> (Vec<Parameters>, Vec<CurrentDynamics>, Vec<CurrentState>) {
+        let sets = spread_parameters(&Parameters::default(), 11, 0.05, 3);
+        let dynamics: Vec<_> = sets.iter().map(CurrentDynamics::new).collect();
+        let states = dynamics
+            .iter()
+            .enumerate()
+            .map(|(i, d)| {
+                let s = d.steady_state(60.0 + 4.0 * i as f64);
+                CurrentState { z1: s.z1 * (1.0 + 0.01 * i as f64), ..s }
+            })
+            .collect();
+        (sets, dynamics, states)
+    }
+
+    fn outcomes(bank: &LaneBank, first: usize, states: &[CurrentState], share: Share, portable: bool) -> Vec<LaneOutcome> {
+        let mut out = vec![LaneOutcome::default(); states.len()];
+        if portable {
+            bank.step_portable(first, states, share, |s| *s, &mut out);
+        } else {
+            bank.step(first, states, share, |s| *s, &mut out);
+        }
+        out
+    }
+
+    #[test]
+    fn lanes_equal_the_scalar_path_bit_for_bit() {
+        let (sets, dynamics, states) = rig();
+        let bank = LaneBank::new(sets.iter().zip(&dynamics), 0.7);
+        for share in [Share::Setpoint(83.3), Share::Power(1900.0), Share::Power(0.0), Share::Power(1e9)] {
+            let got = outcomes(&bank, 0, &states, share, false);
+            for (i, o) in got.iter().enumerate() {
+                let (p, d) = (&sets[i], &dynamics[i]);
+                let u = match share {
+                    Share::Setpoint(u) => u,
+                    Share::Power(w) => setpoint_for_power(p, w),
+                };
+                let want = d.tracking_step(0.7).step(&states[i], p.clamp_setpoint(u));
+                assert_eq!(o.step, want, "set {i} under {share:?}");
+                assert_eq!(o.energy.to_bits(), (p.voltage_intercept * want.charge + p.ohmic_resistance * want.current_squared).to_bits());
+                assert_eq!(o.hydrogen.to_bits(), (p.h2_coefficient / 3600.0 * want.charge).to_bits());
+                let i = want.state.current;
+                assert_eq!(o.voltage.to_bits(), (p.voltage_intercept + p.ohmic_resistance * i).to_bits());
+                assert_eq!(o.power.to_bits(), ((p.voltage_intercept + p.ohmic_resistance * i) * i).to_bits());
+                assert_eq!(o.h2_flow.to_bits(), (p.h2_coefficient * i).to_bits());
+            }
+            assert_eq!(outcomes(&bank, 0, &states, share, true), got, "the CPU-specific copy differs under {share:?}");
+            // A later chunk of the sets gives the same outcomes for them.
+            assert_eq!(outcomes(&bank, 4, &states[4..], share, false), got[4..]);
+        }
+    }
+
+    #[test]
+    fn a_tracking_step_is_the_closed_form_solution() {
+        // From steady state at 90 % to 70 %: I(h) = K·70 + K·20·(a e^(−h/τp1) + b e^(−h/τp2)).
+        let p = Parameters::default();
+        let d = CurrentDynamics::new(&p);
+        let bank = LaneBank::new(std::iter::once((&p, &d)), 2.0);
+        let o = outcomes(&bank, 0, &[d.steady_state(90.0)], Share::Setpoint(70.0), false);
+        assert!(o[0].step.tracks);
+        let a = (p.tau_zero - p.tau_pole1) / (p.tau_pole2 - p.tau_pole1);
+        let want = p.gain * 70.0 + p.gain * 20.0 * (a * (-2.0 / p.tau_pole1).exp() + (1.0 - a) * (-2.0 / p.tau_pole2).exp());
+        assert!((o[0].step.state.current - want).abs() < 1e-12, "{} vs {want}", o[0].step.state.current);
+    }
+
+    #[test]
+    fn a_rising_step_beyond_the_ramp_limit_is_not_tracking() {
+        // 60 → 100 % from steady state: I_tf starts rising at K·40·(a/τp1 − b/τp2)·… > r.
+        let p = Parameters::default();
+        let d = CurrentDynamics::new(&p);
+        let bank = LaneBank::new(std::iter::once((&p, &d)), 1.0);
+        let o = outcomes(&bank, 0, &[d.steady_state(60.0)], Share::Setpoint(100.0), false);
+        assert!(!o[0].step.tracks);
+    }
+}
