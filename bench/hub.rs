@@ -6,7 +6,9 @@
 //! cargo bench --bench hub
 //!
 //! Cases: `equal` (one group), `sequential` (a few groups), and 25 000 individual parameter
-//! sets (±3 % seeded spread around Table I, equal dispatch: 25 000 groups of one).
+//! sets (±3 % seeded spread around Table I, equal dispatch: 25 000 groups of one, stepped four
+//! at a time in lanes and on every core). `cargo bench --bench hub -- NAME` runs the cases
+//! whose name contains NAME.
 //! Prints wall seconds per simulated day and the hardware. Targets from issue 4:
 //! ≤ 0.5 s, ≤ 1 s, ≤ 15 s.
 
@@ -48,7 +50,10 @@ fn hardware() -> String {
         .and_then(|s| s.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string()))
         .unwrap_or_else(|| "unknown CPU".into());
     let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
-    format!("{cpu}, {cores} logical cores available, single-threaded run")
+    format!(
+        "{cpu}, {cores} logical cores; equal and sequential run on one, individual parameters on {} (rayon; RAYON_NUM_THREADS)",
+        rayon::current_num_threads()
+    )
 }
 
 fn run(name: &str, mut hub: Hub, reference: &[f64], target: f64) {

@@ -15,7 +15,8 @@ use std::cmp::Ordering;
 
 use super::dispatch::{power_at_setpoint, running_count, setpoint_for_power, Demand, DispatchPolicy, Limits};
 use super::dynamics::{CurrentDynamics, StepFactors};
-use super::lanes::{LaneBank, LaneOutcome, Share};
+use super::dynamics::CurrentState;
+use super::lanes::{LaneBank, LaneOutcome, Share, Visit};
 use super::module::StepError;
 use super::operation::{BelowMinimum, Command, OperatingState, OperationParameters, UnitState};
 use super::parameters::{ParameterError, Parameters};
@@ -386,18 +387,9 @@ impl Hub {
         if let Some(bank) = lanes.as_ref().filter(|_| use_lanes) {
             // Aligned: chunk c of the groups is stepped with chunk c of the parameter sets.
             let chunk_step = |c: usize, gs: &mut [Group], ts: &mut [ModuleType], part: &mut Tally| {
-                let mut outcomes = [LaneOutcome::default(); CHUNK];
-                let outcomes = &mut outcomes[..gs.len()];
-                bank.step(c * CHUNK, gs, share, |g: &Group| g.unit.current, outcomes);
-                let mut tally = Tally::default();
-                for ((g, ty), o) in gs.iter_mut().zip(ts.iter_mut()).zip(outcomes.iter()) {
-                    if g.active && g.unit.state == OperatingState::Steady && o.step.tracks {
-                        step.apply(g, o, &mut tally);
-                    } else {
-                        step.advance(ty, g, &mut tally);
-                    }
-                }
-                *part = tally;
+                let mut visitor = ChunkVisitor { step: &step, types: ts, next: 0, tally: Tally::default() };
+                bank.step(c * CHUNK, gs, share, &mut visitor);
+                *part = visitor.tally;
             };
             partials.resize(groups.len().div_ceil(CHUNK), Tally::default());
             if groups.len() >= PARALLEL_FROM {
@@ -555,7 +547,7 @@ struct Stepper {
 }
 
 impl Stepper {
-    /// The scalar path: one group through its operating states.
+    /// The scalar path: one group through its operating states, added to a chunk's tally.
     #[inline]
     fn advance(&self, ty: &mut ModuleType, g: &mut Group, tally: &mut Tally) {
         let command = match (g.active, self.share, self.common) {
@@ -575,6 +567,15 @@ impl Stepper {
             g.starts += t.starts as u64;
         }
         tally.observe(g, &ty.params, &self.op);
+    }
+
+    /// [`Self::advance`] kept out of the lanes' vector loop: the group's part alone, which
+    /// the caller adds to its tally (0 + x = x: the same bits as adding in place).
+    #[inline(never)]
+    fn advance_aside(&self, ty: &mut ModuleType, g: &mut Group) -> Tally {
+        let mut part = Tally::default();
+        self.advance(ty, g, &mut part);
+        part
     }
 
     /// A Steady group whose step the lanes computed (the same arithmetic as the scalar path).
@@ -639,6 +640,51 @@ impl Tally {
         if matches!(g.unit.state, Curve | Standby | Blowdown) {
             self.next_event = self.next_event.min(g.unit.timer);
         }
+    }
+}
+
+/// Steps a chunk of aligned groups with the lanes' outcomes (the scalar path where a group is
+/// not a Steady one whose current tracks), summing the chunk's tally.
+struct ChunkVisitor<'a> {
+    step: &'a Stepper,
+    /// The chunk's parameter sets, set i for group i.
+    types: &'a mut [ModuleType],
+    next: usize,
+    tally: Tally,
+}
+
+impl Visit<Group> for ChunkVisitor<'_> {
+    #[inline(always)]
+    fn state(g: &Group) -> CurrentState {
+        g.unit.current
+    }
+
+    #[inline(always)]
+    fn visit(&mut self, g: &mut Group, o: &LaneOutcome) {
+        let i = self.next;
+        self.next += 1;
+        if g.active && g.unit.state == OperatingState::Steady && o.step.tracks {
+            self.step.apply(g, o, &mut self.tally);
+        } else {
+            // Aligned: group i of the chunk has parameter set i of the chunk.
+            let part = self.step.advance_aside(&mut self.types[i], g);
+            self.tally.add(&part);
+        }
+    }
+}
+
+impl Tally {
+    /// Adds another tally of the same chunk (a group's part).
+    #[inline(always)]
+    fn add(&mut self, part: &Tally) {
+        self.energy += part.energy;
+        self.h2_produced += part.h2_produced;
+        self.running += part.running;
+        self.starts += part.starts;
+        self.carrying += part.carrying;
+        self.others += part.others;
+        self.next_event = self.next_event.min(part.next_event);
+        self.reading.add(&part.reading);
     }
 }
 

@@ -43,6 +43,15 @@ pub struct LaneOutcome {
     pub voltage: f64,
 }
 
+/// What the caller does with each module: where its state is, and what to do with its outcome.
+/// Implementations should mark both `#[inline(always)]`: they run inside the vector loop.
+pub trait Visit<T> {
+    /// The module's current state.
+    fn state(item: &T) -> CurrentState;
+    /// Takes the module's outcome (in order of the items).
+    fn visit(&mut self, item: &mut T, outcome: &LaneOutcome);
+}
+
 /// Constants of four parameter sets at one step length, lane k of block j being set 4j + k.
 #[derive(Clone, Copy, Debug, Default)]
 struct LaneBlock {
@@ -125,56 +134,48 @@ impl LaneBank {
 
     /// The tracking steps of `items`, item k being a module of parameter set `first + k`
     /// (`first` a multiple of four, `first + items.len()` at most [`Self::sets`]) at the state
-    /// `state(item)`, under `share`, into `out[k]`.
-    pub fn step<T, S>(&self, first: usize, items: &[T], share: Share, state: S, out: &mut [LaneOutcome])
-    where
-        S: Fn(&T) -> CurrentState,
-    {
+    /// `V::state(item)`, under `share`, each handed to `visitor.visit(item, outcome)` in order.
+    pub fn step<T, V: Visit<T>>(&self, first: usize, items: &mut [T], share: Share, visitor: &mut V) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2 (checked just above), the only requirement of `step_avx2`.
-            unsafe { self.step_avx2(first, items, share, state, out) };
+            unsafe { self.step_avx2(first, items, share, visitor) };
             return;
         }
-        self.step_portable(first, items, share, state, out);
+        self.step_portable(first, items, share, visitor);
     }
 
-    /// [`Self::step`] compiled for AVX2.
+    /// [`Self::step`] compiled for AVX2 (the visitor inlined into it).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn step_avx2<T, S>(&self, first: usize, items: &[T], share: Share, state: S, out: &mut [LaneOutcome])
-    where
-        S: Fn(&T) -> CurrentState,
-    {
-        self.step_lanes(first, items, share, state, out);
+    unsafe fn step_avx2<T, V: Visit<T>>(&self, first: usize, items: &mut [T], share: Share, visitor: &mut V) {
+        self.step_lanes(first, items, share, visitor);
     }
 
     /// [`Self::step`] for any CPU of the target.
-    pub fn step_portable<T, S>(&self, first: usize, items: &[T], share: Share, state: S, out: &mut [LaneOutcome])
-    where
-        S: Fn(&T) -> CurrentState,
-    {
-        self.step_lanes(first, items, share, state, out);
+    pub fn step_portable<T, V: Visit<T>>(&self, first: usize, items: &mut [T], share: Share, visitor: &mut V) {
+        self.step_lanes(first, items, share, visitor);
     }
 
     #[inline(always)]
-    fn step_lanes<T, S>(&self, first: usize, items: &[T], share: Share, state: S, out: &mut [LaneOutcome])
-    where
-        S: Fn(&T) -> CurrentState,
-    {
-        assert!(first.is_multiple_of(LANES) && first + items.len() <= self.sets && out.len() >= items.len(), "lanes out of range");
+    fn step_lanes<T, V: Visit<T>>(&self, first: usize, items: &mut [T], share: Share, visitor: &mut V) {
+        assert!(first.is_multiple_of(LANES) && first + items.len() <= self.sets, "lanes out of range");
         let (power, fixed, by_power) = match share {
             Share::Setpoint(u) => (0.0, u, false),
             Share::Power(p) => (p, 0.0, true),
         };
         let blocks = &self.blocks[first / LANES..];
-        for ((blk, items), out) in blocks.iter().zip(items.chunks(LANES)).zip(out.chunks_mut(LANES)) {
+        for (blk, items) in blocks.iter().zip(items.chunks_mut(LANES)) {
             let (mut z1, mut z2, mut current) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
             for (k, item) in items.iter().enumerate() {
-                let s = state(item);
+                let s = V::state(item);
                 (z1[k], z2[k], current[k]) = (s.z1, s.z2, s.current);
             }
-            self.block(blk, by_power, power, fixed, [z1, z2, current], out);
+            let mut out = [LaneOutcome::default(); LANES];
+            self.block(blk, by_power, power, fixed, [z1, z2, current], &mut out);
+            for (item, o) in items.iter_mut().zip(&out) {
+                visitor.visit(item, o);
+            }
         }
     }
 
@@ -263,14 +264,28 @@ mod tests {
         (sets, dynamics, states)
     }
 
-    fn outcomes(bank: &LaneBank, first: usize, states: &[CurrentState], share: Share, portable: bool) -> Vec<LaneOutcome> {
-        let mut out = vec![LaneOutcome::default(); states.len()];
-        if portable {
-            bank.step_portable(first, states, share, |s| *s, &mut out);
-        } else {
-            bank.step(first, states, share, |s| *s, &mut out);
+    /// Collects the outcomes.
+    struct Collect(Vec<LaneOutcome>);
+
+    impl Visit<CurrentState> for Collect {
+        fn state(item: &CurrentState) -> CurrentState {
+            *item
         }
-        out
+        fn visit(&mut self, _: &mut CurrentState, outcome: &LaneOutcome) {
+            self.0.push(*outcome);
+        }
+    }
+
+    fn outcomes(bank: &LaneBank, first: usize, states: &[CurrentState], share: Share, portable: bool) -> Vec<LaneOutcome> {
+        let mut out = Collect(Vec::new());
+        let mut items = states.to_vec();
+        if portable {
+            bank.step_portable(first, &mut items, share, &mut out);
+        } else {
+            bank.step(first, &mut items, share, &mut out);
+        }
+        assert_eq!(items, states, "a visitor that changes nothing changed the items");
+        out.0
     }
 
     #[test]
