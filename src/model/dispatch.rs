@@ -115,9 +115,15 @@ pub fn running_count(policy: DispatchPolicy, modules: u32, total: f64, limits: L
 /// for R = 0), divided by K: u = 2P / (K·(V0 + √(V0² + 4RP))), one division. Negative powers
 /// give 0.
 pub fn setpoint_for_power(params: &Parameters, power: f64) -> f64 {
+    setpoint_at_power(params.voltage_intercept, params.ohmic_resistance, params.gain, power)
+}
+
+/// [`setpoint_for_power`] from V0 [V], R [Ω] and K [A/%] (for the lanes, which hold no
+/// `Parameters`; one formula for both).
+#[inline(always)]
+pub fn setpoint_at_power(v0: f64, r: f64, gain: f64, power: f64) -> f64 {
     let p = power.max(0.0);
-    let v0 = params.voltage_intercept;
-    let u = 2.0 * p / (params.gain * (v0 + (v0 * v0 + 4.0 * params.ohmic_resistance * p).sqrt()));
+    let u = 2.0 * p / (gain * (v0 + (v0 * v0 + 4.0 * r * p).sqrt()));
     if u.is_finite() {
         u
     } else {

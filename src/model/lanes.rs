@@ -13,6 +13,7 @@
 //! [`super::dispatch::setpoint_for_power`] (Rust never fuses a·b + c into one rounding), so
 //! results are bit-identical to the scalar path on every CPU.
 
+use super::dispatch::setpoint_at_power;
 use super::dynamics::{CurrentDynamics, CurrentState, TrackedStep, TrackingStep};
 use super::parameters::Parameters;
 
@@ -188,11 +189,7 @@ impl LaneBank {
         let mut tracks = [false; LANES];
         let (mut power_end, mut flow_end, mut voltage_end) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
         for k in 0..LANES {
-            // u = 2P / (K·(V0 + √(V0² + 4RP))), as `setpoint_for_power` computes it.
-            let p = power.max(0.0);
-            let v0 = blk.v0[k];
-            let from_power = 2.0 * p / (blk.gain[k] * (v0 + (v0 * v0 + 4.0 * blk.r[k] * p).sqrt()));
-            let from_power = if from_power.is_finite() { from_power } else { 0.0 };
+            let from_power = setpoint_at_power(blk.v0[k], blk.r[k], blk.gain[k], power);
             let u = if by_power { from_power } else { fixed };
             let t = TrackingStep {
                 gain: blk.gain[k],
