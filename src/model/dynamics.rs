@@ -143,7 +143,7 @@ pub struct TrackedStep {
 }
 
 impl TrackingStep {
-    /// All zero (padding lanes).
+    /// All zero (the placeholder before a step length is known).
     pub const ZERO: TrackingStep = TrackingStep {
         gain: 0.0,
         a: 0.0,

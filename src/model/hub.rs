@@ -14,8 +14,7 @@
 use std::cmp::Ordering;
 
 use super::dispatch::{power_at_setpoint, running_count, setpoint_for_power, Demand, DispatchPolicy, Limits};
-use super::dynamics::{CurrentDynamics, StepFactors};
-use super::dynamics::CurrentState;
+use super::dynamics::{CurrentDynamics, CurrentState, StepFactors};
 use super::lanes::{LaneBank, LaneOutcome, Share, Visit};
 use super::module::StepError;
 use super::operation::{BelowMinimum, Command, OperatingState, OperationParameters, UnitState};
@@ -320,19 +319,25 @@ impl Hub {
 
     /// One pass over the groups: the modules carrying current (dispatched and Steady), the
     /// power of the others [W], and the time until the next end of a start, a standby or a
-    /// stop [s] (the next instant at which either changes). Summed by chunks as
-    /// [`Self::advance_groups`] sums it after a piece, so that either gives the same bits.
+    /// stop [s] (the next instant at which either changes).
     fn survey(&self) -> Survey {
+        self.summed().0
+    }
+
+    /// The survey and the outputs' sums of the groups as they are, summed by chunks as
+    /// [`Self::advance_groups`] sums them after a piece, so that either gives the same bits.
+    fn summed(&self) -> (Survey, ReadingSums) {
         let op = &self.config.operation;
-        let mut out = Survey::new();
+        let (mut survey, mut reading) = (Survey::new(), ReadingSums::default());
         for gs in self.groups.chunks(CHUNK) {
             let mut t = Tally::default();
             for g in gs {
                 t.observe(g, &self.types[g.kind as usize].params, op);
             }
-            out.add(&t);
+            survey.add(&t);
+            reading.add(&t.reading);
         }
-        out
+        (survey, reading)
     }
 
     /// Group i holds the modules of parameter set i, for every i (always so with a parameter
@@ -774,19 +779,7 @@ impl Hub {
 
     /// All outputs in one pass over the groups.
     pub fn readings(&self) -> HubReadings {
-        if let Some(r) = self.read {
-            return r;
-        }
-        let op = &self.config.operation;
-        let mut sum = ReadingSums::default();
-        for gs in self.groups.chunks(CHUNK) {
-            let mut part = ReadingSums::default();
-            for g in gs {
-                part.observe(g, &self.types[g.kind as usize].params, op);
-            }
-            sum.add(&part);
-        }
-        sum.readings()
+        self.read.unwrap_or_else(|| self.summed().1.readings())
     }
 }
 
