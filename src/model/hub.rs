@@ -14,10 +14,15 @@
 use std::cmp::Ordering;
 
 use super::dispatch::{power_at_setpoint, running_count, setpoint_for_power, Demand, DispatchPolicy, Limits};
-use super::dynamics::{CurrentDynamics, CurrentState, StepFactors};
-use super::lanes::{LaneBank, LaneOutcome, Share, Visit};
+use stepper::{ChunkVisitor, Stepper};
+use tally::{Part, ReadingSums, Survey, Tally};
+use super::dynamics::{CurrentDynamics, StepFactors};
+use super::lanes::{LaneBank, Share, LANES};
 use super::module::StepError;
 use super::operation::{BelowMinimum, Command, OperatingState, OperationParameters, UnitState};
+
+mod stepper;
+mod tally;
 use super::parameters::{ParameterError, Parameters};
 
 const SECONDS_PER_HOUR: f64 = 3600.0;
@@ -89,7 +94,7 @@ pub struct HubTotals {
 
 impl HubTotals {
     /// Adds the energy, hydrogen, running time and starts of a chunk's part.
-    fn add(&mut self, part: &Tally) {
+    fn add(&mut self, part: &Part) {
         self.energy += part.energy;
         self.h2_produced += part.h2_produced;
         self.running += part.running;
@@ -118,7 +123,7 @@ pub struct Hub {
     /// Group i holds parameter set i for every i (see [`Self::is_aligned`]).
     aligned: bool,
     /// What each chunk of groups did in a piece (scratch, reused).
-    partials: Vec<Tally>,
+    partials: Vec<Part>,
     /// The survey of the groups as they are, kept from the last piece (None: survey again).
     surveyed: Option<Survey>,
     /// The outputs of the groups as they are, kept from the last piece (None: sum again).
@@ -132,14 +137,6 @@ const CHUNK: usize = 64;
 /// From this many groups (aligned, in lanes) on, chunks are stepped on every core (rayon's
 /// pool; RAYON_NUM_THREADS=1 keeps to one). The sums do not depend on it.
 const PARALLEL_FROM: usize = 4096;
-
-/// What [`Hub::survey`] finds.
-#[derive(Clone, Copy, Debug)]
-struct Survey {
-    carrying: u32,
-    others: f64,
-    next_event: Option<f64>,
-}
 
 impl Hub {
     /// A hub of `config.n_modules` identical modules with parameters `params`, in the state
@@ -331,11 +328,12 @@ impl Hub {
         let (mut survey, mut reading) = (Survey::new(), ReadingSums::default());
         for gs in self.groups.chunks(CHUNK) {
             let mut t = Tally::default();
-            for g in gs {
-                t.observe(g, &self.types[g.kind as usize].params, op);
+            for (j, g) in gs.iter().enumerate() {
+                t.observe(j % LANES, g, &self.types[g.kind as usize].params, op);
             }
-            survey.add(&t);
-            reading.add(&t.reading);
+            let part = t.fold();
+            survey.add(&part);
+            reading.add(&part.reading);
         }
         (survey, reading)
     }
@@ -365,7 +363,7 @@ impl Hub {
     /// that carry current now (by all `n` dispatched while none does); a power reference less
     /// the power of the modules that carry none. `whole`: the piece is the whole step.
     ///
-    /// Groups go in chunks of [`CHUNK`], each summing its own totals, added in order: the
+    /// Groups go in chunks of [`CHUNK`], each summing its own totals ([`tally`]), added in order: the
     /// same sums whichever path steps a group. Returns the survey of the groups after it.
     fn advance_groups(&mut self, demand: Demand, n: u32, survey: &Survey, piece: f64, whole: bool, totals: &mut HubTotals) -> Survey {
         let sharing = if survey.carrying > 0 { survey.carrying } else { n.max(1) };
@@ -391,12 +389,12 @@ impl Hub {
         let Hub { groups, types, lanes, partials, .. } = self;
         if let Some(bank) = lanes.as_ref().filter(|_| use_lanes) {
             // Aligned: chunk c of the groups is stepped with chunk c of the parameter sets.
-            let chunk_step = |c: usize, gs: &mut [Group], ts: &mut [ModuleType], part: &mut Tally| {
+            let chunk_step = |c: usize, gs: &mut [Group], ts: &mut [ModuleType], part: &mut Part| {
                 let mut visitor = ChunkVisitor { step: &step, types: ts, next: 0, tally: Tally::default() };
                 bank.step(c * CHUNK, gs, share, &mut visitor);
-                *part = visitor.tally;
+                *part = visitor.tally.fold();
             };
-            partials.resize(groups.len().div_ceil(CHUNK), Tally::default());
+            partials.resize(groups.len().div_ceil(CHUNK), Part::default());
             if groups.len() >= PARALLEL_FROM {
                 use rayon::prelude::*;
                 groups
@@ -416,10 +414,10 @@ impl Hub {
             partials.clear();
             for gs in groups.chunks_mut(CHUNK) {
                 let mut tally = Tally::default();
-                for g in gs {
-                    step.advance(&mut types[g.kind as usize], g, &mut tally);
+                for (j, g) in gs.iter_mut().enumerate() {
+                    step.advance(&mut types[g.kind as usize], g, &mut tally, j % LANES);
                 }
-                partials.push(tally);
+                partials.push(tally.fold());
             }
         }
         let (mut survey, mut reading) = (Survey::new(), ReadingSums::default());
@@ -540,174 +538,6 @@ impl Hub {
     }
 }
 
-/// One piece of a step, as every group sees it.
-struct Stepper {
-    /// Per module: a setpoint [%] or a power [W].
-    share: Share,
-    /// The setpoint [%] every running module gets, where it is the same for all.
-    common: Option<f64>,
-    piece: f64,
-    rotation: bool,
-    op: OperationParameters,
-}
-
-impl Stepper {
-    /// The scalar path: one group through its operating states, added to a chunk's tally.
-    #[inline]
-    fn advance(&self, ty: &mut ModuleType, g: &mut Group, tally: &mut Tally) {
-        let command = match (g.active, self.share, self.common) {
-            (false, ..) => Command::Stop,
-            (true, _, Some(u)) => Command::Run(u),
-            (true, Share::Setpoint(u), None) => Command::Run(u),
-            (true, Share::Power(p), None) => Command::Run(setpoint_for_power(&ty.params, p)),
-        };
-        let t = g.unit.advance(&ty.params, &ty.dynamics, &mut ty.factors, &self.op, command, self.piece);
-        let c = g.count as f64;
-        tally.energy += c * t.energy;
-        tally.h2_produced += c * (ty.h2_per_coulomb * t.charge);
-        tally.running += c * t.running;
-        tally.starts += g.count as u64 * t.starts as u64;
-        if self.rotation {
-            g.running += t.running;
-            g.starts += t.starts as u64;
-        }
-        tally.observe(g, &ty.params, &self.op);
-    }
-
-    /// [`Self::advance`] kept out of the lanes' vector loop: the group's part alone, which
-    /// the caller adds to its tally (0 + x = x: the same bits as adding in place).
-    #[inline(never)]
-    fn advance_aside(&self, ty: &mut ModuleType, g: &mut Group) -> Tally {
-        let mut part = Tally::default();
-        self.advance(ty, g, &mut part);
-        part
-    }
-
-    /// A Steady group whose step the lanes computed (the same arithmetic as the scalar path).
-    #[inline(always)]
-    fn apply(&self, g: &mut Group, o: &LaneOutcome, tally: &mut Tally) {
-        g.unit.current = o.step.state;
-        let c = g.count as f64;
-        tally.energy += c * o.energy;
-        tally.h2_produced += c * o.hydrogen;
-        tally.running += c * self.piece;
-        if self.rotation {
-            g.running += self.piece;
-        }
-        tally.carrying += g.count;
-        tally.reading.observe_steady(g.count, o.step.state.current, o.power, o.h2_flow, o.voltage);
-    }
-}
-
-/// What a chunk of groups did over a piece of a step, and what it looks like after it.
-#[derive(Clone, Copy, Debug)]
-struct Tally {
-    energy: f64,
-    h2_produced: f64,
-    running: f64,
-    starts: u64,
-    /// Modules dispatched and Steady.
-    carrying: u32,
-    /// Power of the other modules [W].
-    others: f64,
-    /// Time to the next end of a start, standby or stop [s]; infinite if none.
-    next_event: f64,
-    /// The outputs' sums.
-    reading: ReadingSums,
-}
-
-impl Default for Tally {
-    fn default() -> Self {
-        Tally {
-            energy: 0.0,
-            h2_produced: 0.0,
-            running: 0.0,
-            starts: 0,
-            carrying: 0,
-            others: 0.0,
-            next_event: f64::INFINITY,
-            reading: ReadingSums::default(),
-        }
-    }
-}
-
-impl Tally {
-    /// Counts a group as it is now into the survey part.
-    #[inline(always)]
-    fn observe(&mut self, g: &Group, params: &Parameters, op: &OperationParameters) {
-        use OperatingState::*;
-        self.reading.observe(g, params, op);
-        if g.active && g.unit.state == Steady {
-            self.carrying += g.count;
-            return;
-        }
-        self.others += g.count as f64 * g.unit.power(params, op);
-        if matches!(g.unit.state, Curve | Standby | Blowdown) {
-            self.next_event = self.next_event.min(g.unit.timer);
-        }
-    }
-}
-
-/// Steps a chunk of aligned groups with the lanes' outcomes (the scalar path where a group is
-/// not a Steady one whose current tracks), summing the chunk's tally.
-struct ChunkVisitor<'a> {
-    step: &'a Stepper,
-    /// The chunk's parameter sets, set i for group i.
-    types: &'a mut [ModuleType],
-    next: usize,
-    tally: Tally,
-}
-
-impl Visit<Group> for ChunkVisitor<'_> {
-    #[inline(always)]
-    fn state(g: &Group) -> CurrentState {
-        g.unit.current
-    }
-
-    #[inline(always)]
-    fn visit(&mut self, g: &mut Group, o: &LaneOutcome) {
-        let i = self.next;
-        self.next += 1;
-        if g.active && g.unit.state == OperatingState::Steady && o.step.tracks {
-            self.step.apply(g, o, &mut self.tally);
-        } else {
-            // Aligned: group i of the chunk has parameter set i of the chunk.
-            let part = self.step.advance_aside(&mut self.types[i], g);
-            self.tally.add(&part);
-        }
-    }
-}
-
-impl Tally {
-    /// Adds another tally of the same chunk (a group's part).
-    #[inline(always)]
-    fn add(&mut self, part: &Tally) {
-        self.energy += part.energy;
-        self.h2_produced += part.h2_produced;
-        self.running += part.running;
-        self.starts += part.starts;
-        self.carrying += part.carrying;
-        self.others += part.others;
-        self.next_event = self.next_event.min(part.next_event);
-        self.reading.add(&part.reading);
-    }
-}
-
-impl Survey {
-    fn new() -> Self {
-        Survey { carrying: 0, others: 0.0, next_event: None }
-    }
-
-    /// Adds a chunk's part (chunks in order).
-    fn add(&mut self, t: &Tally) {
-        self.carrying += t.carrying;
-        self.others += t.others;
-        if t.next_event.is_finite() {
-            self.next_event = Some(self.next_event.map_or(t.next_event, |e| e.min(t.next_event)));
-        }
-    }
-}
-
 /// The time-varying part of a hub: with its configuration and parameter sets it determines
 /// the hub completely (for saving and restoring).
 #[derive(Clone, Debug, PartialEq)]
@@ -780,70 +610,6 @@ impl Hub {
     /// All outputs in one pass over the groups.
     pub fn readings(&self) -> HubReadings {
         self.read.unwrap_or_else(|| self.summed().1.readings())
-    }
-}
-
-/// Sums behind [`HubReadings`], by chunks of groups in order (the step sums them as it goes,
-/// [`Hub::readings`] when it must: the same bits either way).
-#[derive(Clone, Copy, Debug, Default)]
-struct ReadingSums {
-    power: f64,
-    h2_flow: f64,
-    current: f64,
-    voltage: f64,
-    steady: u64,
-    counts: [u32; 5],
-}
-
-impl ReadingSums {
-    /// A group as it is now.
-    #[inline(always)]
-    fn observe(&mut self, g: &Group, p: &Parameters, op: &OperationParameters) {
-        let i = g.unit.stack_current();
-        if g.unit.state == OperatingState::Steady {
-            let v = p.voltage_intercept + p.ohmic_resistance * i;
-            self.observe_steady(g.count, i, v * i, p.h2_coefficient * i, v);
-        } else {
-            let c = g.count as f64;
-            self.power += c * g.unit.power(p, op);
-            self.h2_flow += c * (p.h2_coefficient * i);
-            self.current += c * i;
-            self.counts[g.unit.state.code() as usize] += g.count;
-        }
-    }
-
-    /// `count` Steady modules at current `i` [A], power (V0 + R·I)·I [W], hydrogen c·I
-    /// [Nl/h] and voltage V0 + R·I [V] each.
-    #[inline(always)]
-    fn observe_steady(&mut self, count: u32, i: f64, power: f64, h2_flow: f64, voltage: f64) {
-        let c = count as f64;
-        self.power += c * power;
-        self.h2_flow += c * h2_flow;
-        self.current += c * i;
-        self.voltage += c * voltage;
-        self.steady += count as u64;
-        self.counts[OperatingState::Steady.code() as usize] += count;
-    }
-
-    fn add(&mut self, part: &ReadingSums) {
-        self.power += part.power;
-        self.h2_flow += part.h2_flow;
-        self.current += part.current;
-        self.voltage += part.voltage;
-        self.steady += part.steady;
-        for (a, b) in self.counts.iter_mut().zip(part.counts) {
-            *a += b;
-        }
-    }
-
-    fn readings(&self) -> HubReadings {
-        HubReadings {
-            power: self.power,
-            h2_flow: self.h2_flow,
-            current: self.current,
-            voltage: if self.steady > 0 { self.voltage / self.steady as f64 } else { 0.0 },
-            counts: self.counts,
-        }
     }
 }
 

@@ -17,8 +17,12 @@ use super::dispatch::setpoint_at_power;
 use super::dynamics::{CurrentDynamics, CurrentState, TrackedStep, TrackingStep};
 use super::parameters::Parameters;
 
-const LANES: usize = 4;
-type Lane = [f64; LANES];
+/// Modules per block.
+pub const LANES: usize = 4;
+/// One value per module of a block.
+pub type Lane = [f64; LANES];
+/// Blocks whose setpoints are computed together (64 modules).
+const BATCH: usize = 16;
 
 /// What each running module is asked for this step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -29,28 +33,49 @@ pub enum Share {
     Power(f64),
 }
 
-/// The result for one module: the tracking step, its energy [J] and hydrogen [Nl].
+/// The results for the modules of one block, lane k for module k (field-major, as computed).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct LaneOutcome {
-    /// The step of the current dynamics (use only where `step.tracks`).
-    pub step: TrackedStep,
+pub struct Outcomes {
+    /// The state at the end of the step: z1, z2 [A] and I [A].
+    pub z1: Lane,
+    pub z2: Lane,
+    pub current: Lane,
+    /// ∫I dt [A·s], ∫I² dt [A²·s].
+    pub charge: Lane,
+    pub current_squared: Lane,
+    /// The step was in the common case (use the other fields only where it holds).
+    pub tracks: [bool; LANES],
     /// V0·∫I dt + R·∫I² dt [J].
-    pub energy: f64,
+    pub energy: Lane,
     /// c/3600·∫I dt [Nl].
-    pub hydrogen: f64,
+    pub hydrogen: Lane,
     /// At the end: power (V0 + R·I)·I [W], hydrogen flow c·I [Nl/h], voltage V0 + R·I [V].
-    pub power: f64,
-    pub h2_flow: f64,
-    pub voltage: f64,
+    pub power: Lane,
+    pub h2_flow: Lane,
+    pub voltage: Lane,
 }
 
-/// What the caller does with each module: where its state is, and what to do with its outcome.
-/// Implementations should mark both `#[inline(always)]`: they run inside the vector loop.
+impl Outcomes {
+    /// The tracking step of lane k.
+    pub fn step(&self, k: usize) -> TrackedStep {
+        TrackedStep {
+            state: CurrentState { z1: self.z1[k], z2: self.z2[k], current: self.current[k] },
+            charge: self.charge[k],
+            current_squared: self.current_squared[k],
+            tracks: self.tracks[k],
+        }
+    }
+}
+
+/// What the caller does with the modules: where their state is, and what to do with the
+/// outcomes of each block. Implementations should mark both `#[inline(always)]`: they run
+/// inside the vector loop.
 pub trait Visit<T> {
     /// The module's current state.
     fn state(item: &T) -> CurrentState;
-    /// Takes the module's outcome (in order of the items).
-    fn visit(&mut self, item: &mut T, outcome: &LaneOutcome);
+    /// Takes the outcomes of one block, lane k for `items[k]` (one to four items; blocks in
+    /// order).
+    fn visit(&mut self, items: &mut [T], outcomes: &Outcomes);
 }
 
 /// Constants of four parameter sets at one step length, lane k of block j being set 4j + k.
@@ -135,7 +160,7 @@ impl LaneBank {
 
     /// The tracking steps of `items`, item k being a module of parameter set `first + k`
     /// (`first` a multiple of four, `first + items.len()` at most [`Self::sets`]) at the state
-    /// `V::state(item)`, under `share`, each handed to `visitor.visit(item, outcome)` in order.
+    /// `V::state(item)`, under `share`, handed to `visitor.visit` four at a time, in order.
     pub fn step<T, V: Visit<T>>(&self, first: usize, items: &mut [T], share: Share, visitor: &mut V) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
@@ -161,36 +186,53 @@ impl LaneBank {
     #[inline(always)]
     fn step_lanes<T, V: Visit<T>>(&self, first: usize, items: &mut [T], share: Share, visitor: &mut V) {
         assert!(first.is_multiple_of(LANES) && first + items.len() <= self.sets, "lanes out of range");
-        let (power, fixed, by_power) = match share {
-            Share::Setpoint(u) => (0.0, u, false),
-            Share::Power(p) => (p, 0.0, true),
-        };
         let blocks = &self.blocks[first / LANES..];
-        for (blk, items) in blocks.iter().zip(items.chunks_mut(LANES)) {
-            let (mut z1, mut z2, mut current) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
-            for (k, item) in items.iter().enumerate() {
-                let s = V::state(item);
-                (z1[k], z2[k], current[k]) = (s.z1, s.z2, s.current);
+        // Setpoints first, a batch of blocks at a time: the square roots and divisions of
+        // neighbouring blocks then overlap instead of each waiting for the last.
+        for (batch, items) in blocks.chunks(BATCH).zip(items.chunks_mut(BATCH * LANES)) {
+            let mut setpoints = [[0.0; LANES]; BATCH];
+            for (blk, u) in batch.iter().zip(setpoints.iter_mut()) {
+                *u = Self::setpoints(blk, share);
             }
-            let mut out = [LaneOutcome::default(); LANES];
-            self.block(blk, by_power, power, fixed, [z1, z2, current], &mut out);
-            for (item, o) in items.iter_mut().zip(&out) {
-                visitor.visit(item, o);
+            for ((blk, u), items) in batch.iter().zip(&setpoints).zip(items.chunks_mut(LANES)) {
+                let (mut z1, mut z2, mut current) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+                for (k, item) in items.iter().enumerate() {
+                    let s = V::state(item);
+                    (z1[k], z2[k], current[k]) = (s.z1, s.z2, s.current);
+                }
+                visitor.visit(items, &self.block(blk, u, [z1, z2, current]));
             }
         }
+    }
+
+    /// The four modules' setpoints [%] under `share`, clamped to [minSetpoint, maxSetpoint].
+    #[inline(always)]
+    fn setpoints(blk: &LaneBlock, share: Share) -> Lane {
+        let mut u = [0.0; LANES];
+        match share {
+            Share::Setpoint(fixed) => {
+                for k in 0..LANES {
+                    u[k] = fixed.max(blk.min[k]).min(blk.max[k]);
+                }
+            }
+            Share::Power(p) => {
+                for k in 0..LANES {
+                    u[k] = setpoint_at_power(blk.v0[k], blk.r[k], blk.gain[k], p).max(blk.min[k]).min(blk.max[k]);
+                }
+            }
+        }
+        u
     }
 
     /// Four modules' steps from their states [z1, z2, I], field-major in and out, so that the
     /// four lanes become vector instructions.
     #[inline(always)]
-    fn block(&self, blk: &LaneBlock, by_power: bool, power: f64, fixed: f64, [z1, z2, current]: [Lane; 3], out: &mut [LaneOutcome]) {
+    fn block(&self, blk: &LaneBlock, setpoints: &Lane, [z1, z2, current]: [Lane; 3]) -> Outcomes {
         let mut next = [[0.0; LANES]; 3];
         let (mut charge, mut squared, mut energy, mut hydrogen) = ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
         let mut tracks = [false; LANES];
         let (mut power_end, mut flow_end, mut voltage_end) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
         for k in 0..LANES {
-            let from_power = setpoint_at_power(blk.v0[k], blk.r[k], blk.gain[k], power);
-            let u = if by_power { from_power } else { fixed };
             let t = TrackingStep {
                 gain: blk.gain[k],
                 a: blk.a[k],
@@ -208,7 +250,7 @@ impl LaneBank {
                 h: self.h,
             };
             let state = CurrentState { z1: z1[k], z2: z2[k], current: current[k] };
-            let step = t.step(&state, u.max(blk.min[k]).min(blk.max[k]));
+            let step = t.step(&state, setpoints[k]);
             next[0][k] = step.state.z1;
             next[1][k] = step.state.z2;
             next[2][k] = step.state.current;
@@ -222,20 +264,18 @@ impl LaneBank {
             power_end[k] = voltage_end[k] * i;
             flow_end[k] = blk.h2_coefficient[k] * i;
         }
-        for (k, o) in out.iter_mut().enumerate() {
-            *o = LaneOutcome {
-                step: TrackedStep {
-                    state: CurrentState { z1: next[0][k], z2: next[1][k], current: next[2][k] },
-                    charge: charge[k],
-                    current_squared: squared[k],
-                    tracks: tracks[k],
-                },
-                energy: energy[k],
-                hydrogen: hydrogen[k],
-                power: power_end[k],
-                h2_flow: flow_end[k],
-                voltage: voltage_end[k],
-            };
+        Outcomes {
+            z1: next[0],
+            z2: next[1],
+            current: next[2],
+            charge,
+            current_squared: squared,
+            tracks,
+            energy,
+            hydrogen,
+            power: power_end,
+            h2_flow: flow_end,
+            voltage: voltage_end,
         }
     }
 }
@@ -246,34 +286,50 @@ mod tests {
     use crate::model::dispatch::setpoint_for_power;
     use crate::model::spread::spread_parameters;
 
-    /// Eleven parameter sets (not a multiple of four) at states that track, ramp and fall.
+    /// 71 parameter sets (more than a batch, not a multiple of four) at states that track,
+    /// ramp and fall.
     fn rig() -> (Vec<Parameters>, Vec<CurrentDynamics>, Vec<CurrentState>) {
-        let sets = spread_parameters(&Parameters::default(), 11, 0.05, 3);
+        let sets = spread_parameters(&Parameters::default(), 71, 0.05, 3);
         let dynamics: Vec<_> = sets.iter().map(CurrentDynamics::new).collect();
         let states = dynamics
             .iter()
             .enumerate()
             .map(|(i, d)| {
-                let s = d.steady_state(60.0 + 4.0 * i as f64);
-                CurrentState { z1: s.z1 * (1.0 + 0.01 * i as f64), ..s }
+                let s = d.steady_state(60.0 + 4.0 * (i % 11) as f64);
+                CurrentState { z1: s.z1 * (1.0 + 0.01 * (i % 11) as f64), ..s }
             })
             .collect();
         (sets, dynamics, states)
     }
 
-    /// Collects the outcomes.
-    struct Collect(Vec<LaneOutcome>);
+    /// One module's outcome.
+    #[derive(Clone, Copy, Debug, PartialEq)]
+    struct One {
+        step: TrackedStep,
+        energy: f64,
+        hydrogen: f64,
+        power: f64,
+        h2_flow: f64,
+        voltage: f64,
+    }
+
+    /// Collects the outcomes, checking that blocks come whole but for the last.
+    struct Collect(Vec<One>);
 
     impl Visit<CurrentState> for Collect {
         fn state(item: &CurrentState) -> CurrentState {
             *item
         }
-        fn visit(&mut self, _: &mut CurrentState, outcome: &LaneOutcome) {
-            self.0.push(*outcome);
+        fn visit(&mut self, items: &mut [CurrentState], o: &Outcomes) {
+            assert!(self.0.len().is_multiple_of(LANES) && (1..=LANES).contains(&items.len()));
+            for k in 0..items.len() {
+                let (energy, hydrogen, power, h2_flow, voltage) = (o.energy[k], o.hydrogen[k], o.power[k], o.h2_flow[k], o.voltage[k]);
+                self.0.push(One { step: o.step(k), energy, hydrogen, power, h2_flow, voltage });
+            }
         }
     }
 
-    fn outcomes(bank: &LaneBank, first: usize, states: &[CurrentState], share: Share, portable: bool) -> Vec<LaneOutcome> {
+    fn outcomes(bank: &LaneBank, first: usize, states: &[CurrentState], share: Share, portable: bool) -> Vec<One> {
         let mut out = Collect(Vec::new());
         let mut items = states.to_vec();
         if portable {
@@ -291,6 +347,7 @@ mod tests {
         let bank = LaneBank::new(sets.iter().zip(&dynamics), 0.7);
         for share in [Share::Setpoint(83.3), Share::Power(1900.0), Share::Power(0.0), Share::Power(1e9)] {
             let got = outcomes(&bank, 0, &states, share, false);
+            assert_eq!(got.len(), states.len());
             for (i, o) in got.iter().enumerate() {
                 let (p, d) = (&sets[i], &dynamics[i]);
                 let u = match share {

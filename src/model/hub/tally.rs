@@ -1,0 +1,227 @@
+//! Sums over the groups, in one order whichever path stepped a group.
+//!
+//! Groups go in chunks of [`super::CHUNK`]; group j of a chunk adds to lane j mod 4 of the
+//! chunk's [`Tally`], the lanes are folded in order, ((l0 + l1) + l2) + l3, into the chunk's
+//! [`Part`], and the parts are added in chunk order into the hub's totals, survey and
+//! readings. The scalar path, the lanes (four groups with one vector instruction), several
+//! threads and a fresh survey all sum in that order, so each gives the same bits.
+
+use super::super::lanes::{Lane, Outcomes, LANES};
+use super::super::operation::{OperatingState, OperationParameters};
+use super::super::parameters::Parameters;
+use super::{Group, HubReadings};
+
+/// A chunk's sums while its groups are stepped or observed, lane k for group j ≡ k (mod 4).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Tally {
+    /// Electric energy [J], hydrogen [Nl] and running time [s] over the piece.
+    pub energy: Lane,
+    pub h2_produced: Lane,
+    pub running: Lane,
+    /// Power of the modules that carry no current share [W].
+    pub others: Lane,
+    /// Outputs after the piece: power [W], hydrogen flow [Nl/h], current [A], and the
+    /// voltage [V] summed over Steady modules.
+    pub power: Lane,
+    pub h2_flow: Lane,
+    pub current: Lane,
+    pub voltage: Lane,
+    pub starts: u64,
+    /// Modules dispatched and Steady.
+    pub carrying: u32,
+    /// Modules Steady, and in each operating state.
+    pub steady: u64,
+    pub counts: [u32; 5],
+    /// Time to the next end of a start, standby or stop [s]; infinite if none.
+    pub next_event: f64,
+}
+
+impl Default for Tally {
+    fn default() -> Self {
+        let zero = [0.0; LANES];
+        Tally {
+            energy: zero,
+            h2_produced: zero,
+            running: zero,
+            others: zero,
+            power: zero,
+            h2_flow: zero,
+            current: zero,
+            voltage: zero,
+            starts: 0,
+            carrying: 0,
+            steady: 0,
+            counts: [0; 5],
+            next_event: f64::INFINITY,
+        }
+    }
+}
+
+impl Tally {
+    /// Counts group `g` (lane k) as it is now: its outputs and its part in the survey.
+    #[inline(always)]
+    pub fn observe(&mut self, k: usize, g: &Group, p: &Parameters, op: &OperationParameters) {
+        use OperatingState::*;
+        let i = g.unit.stack_current();
+        let c = g.count as f64;
+        if g.unit.state == Steady {
+            let v = p.voltage_intercept + p.ohmic_resistance * i;
+            self.observe_steady(k, g.count, i, v * i, p.h2_coefficient * i, v);
+        } else {
+            let power = c * g.unit.power(p, op);
+            self.power[k] += power;
+            self.h2_flow[k] += c * (p.h2_coefficient * i);
+            self.current[k] += c * i;
+            self.counts[g.unit.state.code() as usize] += g.count;
+            self.others[k] += power;
+            if matches!(g.unit.state, Curve | Standby | Blowdown) {
+                self.next_event = self.next_event.min(g.unit.timer);
+            }
+            return;
+        }
+        if g.active {
+            self.carrying += g.count;
+        } else {
+            self.others[k] += c * g.unit.power(p, op);
+        }
+    }
+
+    /// `count` Steady modules (lane k) at current `i` [A], power (V0 + R·I)·I [W], hydrogen
+    /// c·I [Nl/h] and voltage V0 + R·I [V] each.
+    #[inline(always)]
+    fn observe_steady(&mut self, k: usize, count: u32, i: f64, power: f64, h2_flow: f64, voltage: f64) {
+        let c = count as f64;
+        self.power[k] += c * power;
+        self.h2_flow[k] += c * h2_flow;
+        self.current[k] += c * i;
+        self.voltage[k] += c * voltage;
+        self.steady += count as u64;
+        self.counts[OperatingState::Steady.code() as usize] += count;
+    }
+
+    /// Lane k's step of a dispatched Steady group of `count` modules whose current tracked
+    /// over a piece of `piece` seconds: its sums and its outputs after it.
+    #[inline(always)]
+    pub fn tracked(&mut self, k: usize, count: u32, o: &Outcomes, piece: f64) {
+        let c = count as f64;
+        self.energy[k] += c * o.energy[k];
+        self.h2_produced[k] += c * o.hydrogen[k];
+        self.running[k] += c * piece;
+        self.carrying += count;
+        self.observe_steady(k, count, o.current[k], o.power[k], o.h2_flow[k], o.voltage[k]);
+    }
+
+    /// [`Self::tracked`] for a whole block of four groups of `counts` modules (the same
+    /// arithmetic, lane by lane, as vector instructions).
+    #[inline(always)]
+    pub fn tracked_block(&mut self, counts: [u32; LANES], o: &Outcomes, piece: f64) {
+        let c: Lane = counts.map(f64::from);
+        for k in 0..LANES {
+            self.energy[k] += c[k] * o.energy[k];
+            self.h2_produced[k] += c[k] * o.hydrogen[k];
+            self.running[k] += c[k] * piece;
+            self.power[k] += c[k] * o.power[k];
+            self.h2_flow[k] += c[k] * o.h2_flow[k];
+            self.current[k] += c[k] * o.current[k];
+            self.voltage[k] += c[k] * o.voltage[k];
+        }
+        let n: u32 = counts.iter().sum();
+        self.carrying += n;
+        self.steady += n as u64;
+        self.counts[OperatingState::Steady.code() as usize] += n;
+    }
+
+    /// The chunk's sums, lanes folded in order.
+    pub fn fold(&self) -> Part {
+        let fold = |l: &Lane| l.iter().skip(1).fold(l[0], |s, x| s + x);
+        Part {
+            energy: fold(&self.energy),
+            h2_produced: fold(&self.h2_produced),
+            running: fold(&self.running),
+            starts: self.starts,
+            carrying: self.carrying,
+            others: fold(&self.others),
+            next_event: self.next_event,
+            reading: ReadingSums {
+                power: fold(&self.power),
+                h2_flow: fold(&self.h2_flow),
+                current: fold(&self.current),
+                voltage: fold(&self.voltage),
+                steady: self.steady,
+                counts: self.counts,
+            },
+        }
+    }
+}
+
+/// What a chunk of groups did over a piece of a step, and what it looks like after it.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Part {
+    pub energy: f64,
+    pub h2_produced: f64,
+    pub running: f64,
+    pub starts: u64,
+    pub carrying: u32,
+    pub others: f64,
+    pub next_event: f64,
+    pub reading: ReadingSums,
+}
+
+/// What a survey of the groups finds: the modules carrying current (dispatched and Steady),
+/// the power of the others [W], and the time until the next end of a start, a standby or a
+/// stop [s].
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Survey {
+    pub carrying: u32,
+    pub others: f64,
+    pub next_event: Option<f64>,
+}
+
+impl Survey {
+    pub fn new() -> Self {
+        Survey { carrying: 0, others: 0.0, next_event: None }
+    }
+
+    /// Adds a chunk's part (chunks in order).
+    pub fn add(&mut self, t: &Part) {
+        self.carrying += t.carrying;
+        self.others += t.others;
+        if t.next_event.is_finite() {
+            self.next_event = Some(self.next_event.map_or(t.next_event, |e| e.min(t.next_event)));
+        }
+    }
+}
+
+/// Sums behind [`HubReadings`], chunks added in order.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct ReadingSums {
+    power: f64,
+    h2_flow: f64,
+    current: f64,
+    voltage: f64,
+    steady: u64,
+    counts: [u32; 5],
+}
+
+impl ReadingSums {
+    pub fn add(&mut self, part: &ReadingSums) {
+        self.power += part.power;
+        self.h2_flow += part.h2_flow;
+        self.current += part.current;
+        self.voltage += part.voltage;
+        self.steady += part.steady;
+        for (a, b) in self.counts.iter_mut().zip(part.counts) {
+            *a += b;
+        }
+    }
+
+    pub fn readings(&self) -> HubReadings {
+        HubReadings {
+            power: self.power,
+            h2_flow: self.h2_flow,
+            current: self.current,
+            voltage: if self.steady > 0 { self.voltage / self.steady as f64 } else { 0.0 },
+            counts: self.counts,
+        }
+    }
+}
