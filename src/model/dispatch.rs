@@ -17,6 +17,7 @@
 //!   and starts (see [`crate::model::hub`]).
 
 use super::parameters::{ParameterError, Parameters};
+use super::select::at_least;
 
 /// Dispatch policy; the discriminant is the FMU's Integer code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -122,7 +123,7 @@ pub fn setpoint_for_power(params: &Parameters, power: f64) -> f64 {
 /// `Parameters`; one formula for both).
 #[inline(always)]
 pub fn setpoint_at_power(v0: f64, r: f64, gain: f64, power: f64) -> f64 {
-    let p = power.max(0.0);
+    let p = at_least(power, 0.0);
     let u = 2.0 * p / (gain * (v0 + (v0 * v0 + 4.0 * r * p).sqrt()));
     if u.is_finite() {
         u

@@ -17,6 +17,7 @@
 
 use super::parameters::Parameters;
 use super::roots::monotone_root;
+use super::select::at_least;
 
 /// Dynamic state of the current: modal states and the limited current, all [A].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -169,8 +170,8 @@ impl TrackingStep {
         let base = self.gain * u;
         let (dev1, dev2) = (state.z1 - base, state.z2 - base);
         let tf0 = base + self.a * dev1 + self.b * dev2;
-        let at_tf = tf0 - state.current <= 1e-12 * tf0.abs().max(1.0);
-        let max_rise = (self.rise1 * dev1).max(0.0) + (self.rise2 * dev2).max(0.0);
+        let at_tf = tf0 - state.current <= 1e-12 * at_least(tf0.abs(), 1.0);
+        let max_rise = at_least(self.rise1 * dev1, 0.0) + at_least(self.rise2 * dev2, 0.0);
         let z1 = base + dev1 * self.e1;
         let z2 = base + dev2 * self.e2;
         let lin = self.w1 * dev1 + self.w2 * dev2;

@@ -390,9 +390,9 @@ impl Hub {
         if let Some(bank) = lanes.as_ref().filter(|_| use_lanes) {
             // Aligned: chunk c of the groups is stepped with chunk c of the parameter sets.
             let chunk_step = |c: usize, gs: &mut [Group], ts: &mut [ModuleType], part: &mut Part| {
-                let mut visitor = ChunkVisitor { step: &step, types: ts, next: 0, tally: Tally::default() };
-                bank.step(c * CHUNK, gs, share, &mut visitor);
-                *part = visitor.tally.fold();
+                let mut tally = Tally::default();
+                bank.step(c * CHUNK, gs, share, &mut ChunkVisitor { step: &step, types: ts, next: 0, tally: &mut tally });
+                *part = tally.fold();
             };
             partials.resize(groups.len().div_ceil(CHUNK), Part::default());
             if groups.len() >= PARALLEL_FROM {

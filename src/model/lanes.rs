@@ -16,6 +16,7 @@
 use super::dispatch::setpoint_at_power;
 use super::dynamics::{CurrentDynamics, CurrentState, TrackedStep, TrackingStep};
 use super::parameters::Parameters;
+use super::select::clamped;
 
 /// Modules per block.
 pub const LANES: usize = 4;
@@ -212,12 +213,12 @@ impl LaneBank {
         match share {
             Share::Setpoint(fixed) => {
                 for k in 0..LANES {
-                    u[k] = fixed.max(blk.min[k]).min(blk.max[k]);
+                    u[k] = clamped(fixed, blk.min[k], blk.max[k]);
                 }
             }
             Share::Power(p) => {
                 for k in 0..LANES {
-                    u[k] = setpoint_at_power(blk.v0[k], blk.r[k], blk.gain[k], p).max(blk.min[k]).min(blk.max[k]);
+                    u[k] = clamped(setpoint_at_power(blk.v0[k], blk.r[k], blk.gain[k], p), blk.min[k], blk.max[k]);
                 }
             }
         }

@@ -19,6 +19,7 @@ pub mod parameters;
 pub mod plant;
 pub mod spread;
 mod roots;
+mod select;
 
 pub use dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
 pub use module::{Module, ModuleState, StepError};

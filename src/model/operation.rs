@@ -220,6 +220,11 @@ impl UnitState {
         h: f64,
     ) -> UnitTotals {
         use OperatingState::*;
+        if command == Stop {
+            if let Some(totals) = self.wait_stopped(op, h) {
+                return totals;
+            }
+        }
         let mut totals = UnitTotals::default();
         let mut left = h;
         // Each pass either uses up the rest of the step or moves along a finite chain of
@@ -262,6 +267,23 @@ impl UnitState {
                     *self = UnitState::idle();
                 }
             }
+        }
+    }
+
+    /// [`Self::advance`] under `Stop` where the state holds throughout the `h` seconds (Idle;
+    /// Standby or Blowdown with more than `h` left): the same result in a few instructions,
+    /// which [`Self::advance`] itself uses. None, changing nothing, otherwise.
+    #[inline(always)]
+    pub fn wait_stopped(&mut self, op: &OperationParameters, h: f64) -> Option<UnitTotals> {
+        let mut totals = UnitTotals::default();
+        match self.state {
+            OperatingState::Idle => Some(totals),
+            OperatingState::Standby | OperatingState::Blowdown if self.timer > h => {
+                let mut left = h;
+                self.wait(op.standby_power, &mut left, &mut totals);
+                Some(totals)
+            }
+            _ => None,
         }
     }
 

@@ -3,6 +3,7 @@
 use std::fmt;
 
 use crate::model_description::start;
+use super::select::clamped;
 
 /// Parameters of one module, in the units of the model description.
 ///
@@ -159,7 +160,7 @@ impl Parameters {
 
     /// Setpoint limited to the operating window [minSetpoint, maxSetpoint] [%].
     pub fn clamp_setpoint(&self, setpoint_percent: f64) -> f64 {
-        setpoint_percent.clamp(self.min_setpoint, self.max_setpoint)
+        clamped(setpoint_percent, self.min_setpoint, self.max_setpoint)
     }
 }
 

@@ -4,7 +4,7 @@
 use super::super::dispatch::setpoint_for_power;
 use super::super::dynamics::CurrentState;
 use super::super::lanes::{Outcomes, Share, Visit, LANES};
-use super::super::operation::{Command, OperatingState, OperationParameters};
+use super::super::operation::{Command, OperatingState, OperationParameters, UnitTotals};
 use super::tally::Tally;
 use super::{Group, ModuleType};
 
@@ -32,6 +32,12 @@ impl Stepper {
             (true, Share::Power(p), None) => Command::Run(setpoint_for_power(&ty.params, p)),
         };
         let t = g.unit.advance(&ty.params, &ty.dynamics, &mut ty.factors, &self.op, command, self.piece);
+        self.add(ty, g, &t, tally, k);
+    }
+
+    /// Adds group `g`'s step `t` (lane k) and the group as it is after it.
+    #[inline(always)]
+    fn add(&self, ty: &ModuleType, g: &mut Group, t: &UnitTotals, tally: &mut Tally, k: usize) {
         let c = g.count as f64;
         tally.energy[k] += c * t.energy;
         tally.h2_produced[k] += c * (ty.h2_per_coulomb * t.charge);
@@ -71,7 +77,7 @@ pub(super) struct ChunkVisitor<'a> {
     pub types: &'a mut [ModuleType],
     /// Index in the chunk of the next block's first group.
     pub next: usize,
-    pub tally: Tally,
+    pub tally: &'a mut Tally,
 }
 
 impl Visit<Group> for ChunkVisitor<'_> {
@@ -100,9 +106,19 @@ impl Visit<Group> for ChunkVisitor<'_> {
         }
         for (k, g) in gs.iter_mut().enumerate() {
             if tracks[k] {
-                self.step.tracked(g, o, k, &mut self.tally);
-            } else {
-                self.step.advance_aside(&mut self.types[first + k], g, &mut self.tally, k);
+                self.step.tracked(g, o, k, self.tally);
+                continue;
+            }
+            // A stopped group that stays as it is (Idle, or Standby or Blowdown with time left):
+            // the scalar path's own arithmetic, kept in the loop.
+            if !g.active {
+                if let Some(t) = g.unit.wait_stopped(&self.step.op, self.step.piece) {
+                    self.step.add(&self.types[first + k], g, &t, self.tally, k);
+                    continue;
+                }
+            }
+            {
+                self.step.advance_aside(&mut self.types[first + k], g, self.tally, k);
             }
         }
     }
