@@ -135,7 +135,8 @@ const LANES_FROM: usize = 8;
 /// Groups per chunk (a multiple of four lanes): each chunk sums its own totals.
 const CHUNK: usize = 64;
 /// From this many groups (aligned, in lanes) on, chunks are stepped on every core (rayon's
-/// pool; RAYON_NUM_THREADS=1 keeps to one). The sums do not depend on it.
+/// pool; RAYON_NUM_THREADS=1 keeps to the calling thread, with no hand-off). The sums do not
+/// depend on it.
 const PARALLEL_FROM: usize = 4096;
 
 impl Hub {
@@ -395,7 +396,7 @@ impl Hub {
                 *part = tally.fold();
             };
             partials.resize(groups.len().div_ceil(CHUNK), Part::default());
-            if groups.len() >= PARALLEL_FROM {
+            if groups.len() >= PARALLEL_FROM && rayon::current_num_threads() > 1 {
                 use rayon::prelude::*;
                 groups
                     .par_chunks_mut(CHUNK)
