@@ -209,20 +209,12 @@ impl LaneBank {
     /// The four modules' setpoints [%] under `share`, clamped to [minSetpoint, maxSetpoint].
     #[inline(always)]
     fn setpoints(blk: &LaneBlock, share: Share) -> Lane {
-        let mut u = [0.0; LANES];
         match share {
-            Share::Setpoint(fixed) => {
-                for k in 0..LANES {
-                    u[k] = clamped(fixed, blk.min[k], blk.max[k]);
-                }
-            }
+            Share::Setpoint(fixed) => std::array::from_fn(|k| clamped(fixed, blk.min[k], blk.max[k])),
             Share::Power(p) => {
-                for k in 0..LANES {
-                    u[k] = clamped(setpoint_at_power(blk.v0[k], blk.r[k], blk.gain[k], p), blk.min[k], blk.max[k]);
-                }
+                std::array::from_fn(|k| clamped(setpoint_at_power(blk.v0[k], blk.r[k], blk.gain[k], p), blk.min[k], blk.max[k]))
             }
         }
-        u
     }
 
     /// Four modules' steps from their states [z1, z2, I], field-major in and out, so that the

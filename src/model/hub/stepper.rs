@@ -66,6 +66,18 @@ impl Stepper {
         }
         tally.tracked(k, g.count, o, self.piece);
     }
+
+    /// [`Self::tracked`] for a whole block, group k in lane k (the sums as vector instructions).
+    #[inline(always)]
+    fn tracked_block(&self, block: &mut [Group; LANES], o: &Outcomes, tally: &mut Tally) {
+        for (k, g) in block.iter_mut().enumerate() {
+            g.unit.current = CurrentState { z1: o.z1[k], z2: o.z2[k], current: o.current[k] };
+            if self.rotation {
+                g.running += self.piece;
+            }
+        }
+        tally.tracked_block(block.each_ref().map(|g| g.count), o, self.piece);
+    }
 }
 
 /// Steps a chunk of aligned groups (group i has parameter set i of the chunk) with the lanes'
@@ -94,14 +106,8 @@ impl Visit<Group> for ChunkVisitor<'_> {
         for (k, g) in gs.iter().enumerate() {
             tracks[k] = g.active & (g.unit.state == OperatingState::Steady) & o.tracks[k];
         }
-        if let (Ok(block), [true, true, true, true]) = (<&mut [Group; LANES]>::try_from(&mut *gs), tracks) {
-            for (k, g) in block.iter_mut().enumerate() {
-                g.unit.current = CurrentState { z1: o.z1[k], z2: o.z2[k], current: o.current[k] };
-                if self.step.rotation {
-                    g.running += self.step.piece;
-                }
-            }
-            self.tally.tracked_block(block.each_ref().map(|g| g.count), o, self.step.piece);
+        if let (Ok(block), true) = (<&mut [Group; LANES]>::try_from(&mut *gs), tracks == [true; LANES]) {
+            self.step.tracked_block(block, o, self.tally);
             return;
         }
         for (k, g) in gs.iter_mut().enumerate() {
@@ -117,9 +123,7 @@ impl Visit<Group> for ChunkVisitor<'_> {
                     continue;
                 }
             }
-            {
-                self.step.advance_aside(&mut self.types[first + k], g, self.tally, k);
-            }
+            self.step.advance_aside(&mut self.types[first + k], g, self.tally, k);
         }
     }
 }

@@ -114,6 +114,7 @@ impl Tally {
     /// [`Self::tracked`] for a whole block of four groups of `counts` modules (the same
     /// arithmetic, lane by lane, as vector instructions).
     #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // lane k of every field: one vector instruction each
     pub fn tracked_block(&mut self, counts: [u32; LANES], o: &Outcomes, piece: f64) {
         let c: Lane = counts.map(f64::from);
         for k in 0..LANES {
