@@ -14,16 +14,16 @@
 use std::cmp::Ordering;
 
 use super::dispatch::{power_at_setpoint, running_count, setpoint_for_power, Demand, DispatchPolicy, Limits};
-use stepper::{ChunkVisitor, Stepper};
-use tally::{Part, ReadingSums, Survey, Tally};
 use super::dynamics::{CurrentDynamics, StepFactors};
 use super::lanes::{LaneBank, Share, LANES};
 use super::module::StepError;
 use super::operation::{BelowMinimum, Command, OperatingState, OperationParameters, UnitState};
+use super::parameters::{ParameterError, Parameters};
+use stepper::{ChunkVisitor, Stepper};
+use tally::{Part, ReadingSums, Survey, Tally};
 
 mod stepper;
 mod tally;
-use super::parameters::{ParameterError, Parameters};
 
 const SECONDS_PER_HOUR: f64 = 3600.0;
 /// Hydrogen density at normal conditions (0 °C, 1 atm) [kg/Nl]: 2.01588 g/mol / 22.413969 l/mol.
@@ -364,8 +364,8 @@ impl Hub {
     /// that carry current now (by all `n` dispatched while none does); a power reference less
     /// the power of the modules that carry none. `whole`: the piece is the whole step.
     ///
-    /// Groups go in chunks of [`CHUNK`], each summing its own totals ([`tally`]), added in order: the
-    /// same sums whichever path steps a group. Returns the survey of the groups after it.
+    /// Groups go in chunks of [`CHUNK`], each summing its own totals ([`tally`]), added in
+    /// order: the same sums whichever path steps a group. Returns the survey of the groups after it.
     fn advance_groups(&mut self, demand: Demand, n: u32, survey: &Survey, piece: f64, whole: bool, totals: &mut HubTotals) -> Survey {
         let sharing = if survey.carrying > 0 { survey.carrying } else { n.max(1) };
         let demand = match demand {

@@ -50,6 +50,21 @@ impl Stepper {
         tally.observe(k, g, &ty.params, &self.op);
     }
 
+    /// [`Self::advance`] for a stopped group that stays as it is (Idle, or Standby or Blowdown
+    /// with time left), with the same arithmetic, in a few instructions that stay in the lanes'
+    /// loop. False, changing nothing, for any other group.
+    #[inline(always)]
+    fn waited(&self, ty: &ModuleType, g: &mut Group, tally: &mut Tally, k: usize) -> bool {
+        if g.active {
+            return false;
+        }
+        let Some(t) = g.unit.wait_stopped(&self.op, self.piece) else {
+            return false;
+        };
+        self.add(ty, g, &t, tally, k);
+        true
+    }
+
     /// [`Self::advance`] kept out of the lanes' vector loop.
     #[inline(never)]
     fn advance_aside(&self, ty: &mut ModuleType, g: &mut Group, tally: &mut Tally, k: usize) {
@@ -115,15 +130,10 @@ impl Visit<Group> for ChunkVisitor<'_> {
                 self.step.tracked(g, o, k, self.tally);
                 continue;
             }
-            // A stopped group that stays as it is (Idle, or Standby or Blowdown with time left):
-            // the scalar path's own arithmetic, kept in the loop.
-            if !g.active {
-                if let Some(t) = g.unit.wait_stopped(&self.step.op, self.step.piece) {
-                    self.step.add(&self.types[first + k], g, &t, self.tally, k);
-                    continue;
-                }
+            let ty = &mut self.types[first + k];
+            if !self.step.waited(ty, g, self.tally, k) {
+                self.step.advance_aside(ty, g, self.tally, k);
             }
-            self.step.advance_aside(&mut self.types[first + k], g, self.tally, k);
         }
     }
 }

@@ -67,22 +67,21 @@ impl Tally {
         if g.unit.state == Steady {
             let v = p.voltage_intercept + p.ohmic_resistance * i;
             self.observe_steady(k, g.count, i, v * i, p.h2_coefficient * i, v);
-        } else {
-            let power = c * g.unit.power(p, op);
-            self.power[k] += power;
-            self.h2_flow[k] += c * (p.h2_coefficient * i);
-            self.current[k] += c * i;
-            self.counts[g.unit.state.code() as usize] += g.count;
-            self.others[k] += power;
-            if matches!(g.unit.state, Curve | Standby | Blowdown) {
-                self.next_event = self.next_event.min(g.unit.timer);
+            if g.active {
+                self.carrying += g.count;
+            } else {
+                self.others[k] += c * (v * i);
             }
             return;
         }
-        if g.active {
-            self.carrying += g.count;
-        } else {
-            self.others[k] += c * g.unit.power(p, op);
+        let power = c * g.unit.power(p, op);
+        self.power[k] += power;
+        self.h2_flow[k] += c * (p.h2_coefficient * i);
+        self.current[k] += c * i;
+        self.counts[g.unit.state.code() as usize] += g.count;
+        self.others[k] += power;
+        if matches!(g.unit.state, Curve | Standby | Blowdown) {
+            self.next_event = self.next_event.min(g.unit.timer);
         }
     }
 
