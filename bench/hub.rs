@@ -14,10 +14,10 @@
 
 use std::time::Instant;
 
-use aem_electrolyser::model::dispatch::power_at_setpoint;
-use aem_electrolyser::model::spread::spread_parameters;
+use aem_model::dispatch::power_at_setpoint;
+use aem_model::spread::spread_parameters;
 use aem_electrolyser::fmi2::exports::*;
-use aem_electrolyser::model::{BelowMinimum, Demand, DispatchPolicy, Hub, HubConfig, OperationParameters, Parameters};
+use aem_model::{BelowMinimum, Demand, DispatchPolicy, Hub, HubConfig, OperationParameters, Parameters};
 use aem_electrolyser::model_description::{BooleanVariable, IntegerVariable, RealVariable, GUID};
 use fmi_sys::fmi2 as sys;
 
@@ -71,7 +71,7 @@ fn run(name: &str, mut hub: Hub, reference: &[f64], target: f64) {
     println!(
         "{name:<28} {secs:8.3} s/day (target <= {target} s)  groups max {max_groups:>6}  energy {:.1} MWh  H2 {:.0} kg  starts {}",
         t.energy / 3.6e9,
-        t.h2_produced * aem_electrolyser::model::hub::H2_KG_PER_NL,
+        t.h2_produced * aem_model::hub::H2_KG_PER_NL,
         t.starts
     );
 }

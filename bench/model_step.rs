@@ -10,7 +10,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use aem_electrolyser::fmi2::exports::*;
-use aem_electrolyser::model::{Module, Parameters};
+use aem_model::{Module, Parameters};
 use aem_electrolyser::model_description::{RealVariable, GUID};
 use fmi_sys::fmi2 as sys;
 

@@ -56,7 +56,7 @@ def build_release(model_description=None):
     env.pop("AEM_MODEL_DESCRIPTION", None)
     if model_description is not None:
         env["AEM_MODEL_DESCRIPTION"] = str(model_description)
-    subprocess.run(["cargo", "build", "--release", "--lib", "--locked"], cwd=ROOT, check=True, env=env)
+    subprocess.run(["cargo", "build", "--release", "--lib", "--package", "aem-electrolyser-fmu", "--locked"], cwd=ROOT, check=True, env=env)
 
 
 class ParameterFileError(Exception):

@@ -13,8 +13,8 @@ use std::ffi::CString;
 use std::ptr::{null, null_mut};
 
 use aem_electrolyser::fmi2::exports::*;
-use aem_electrolyser::fmi2::variables::{integer_parameter_mut, real_parameter_mut};
-use aem_electrolyser::model::{Parameters, PlantSettings};
+use aem_electrolyser::fmi2::variables::{integer_parameter_mut, real_parameter_mut, start_values};
+use aem_model::{Parameters, PlantSettings};
 use aem_electrolyser::model_description::{Causality, IntegerVariable, RealVariable, StringVariable, GUID};
 use fmi_sys::fmi2 as sys;
 use proptest::prelude::*;
@@ -158,7 +158,8 @@ struct View {
 
 impl View {
     fn fresh() -> View {
-        View { state: State::Instantiated, time: 0.0, stop: None, params: Parameters::default(), settings: PlantSettings::default(), file: String::new() }
+        let (params, settings, _) = start_values();
+        View { state: State::Instantiated, time: 0.0, stop: None, params, settings, file: String::new() }
     }
 
     /// Whether fmi2ExitInitializationMode succeeds: valid parameters and settings, and a

@@ -8,9 +8,9 @@
 //! magic, version, length, checksum, GUID, enum codes, finiteness and the plant's
 //! consistency with its settings are all checked.
 
-use crate::model::hub::{Group, HubSnapshot, HubTotals};
-use crate::model::operation::UnitState;
-use crate::model::{CurrentState, ModuleState, OperatingState, Parameters, PlantSettings, PlantSnapshot};
+use aem_model::hub::{Group, HubSnapshot, HubTotals};
+use aem_model::operation::UnitState;
+use aem_model::{CurrentState, ModuleState, OperatingState, Parameters, PlantSettings, PlantSnapshot};
 use crate::model_description::GUID;
 
 use super::state_machine::FmiState;
@@ -430,7 +430,7 @@ mod tests {
         let settings = PlantSettings { n_modules: 10, dispatch: 2, below_minimum: 1, power_input: true, ..PlantSettings::default() };
         let config = settings.config().unwrap();
         let sets = vec![Parameters::default(), Parameters { gain: 0.5, ..Parameters::default() }];
-        let mut plant = crate::model::Plant::new(Parameters::default(), &config, Some(&sets), 0.0, 12_000.0).unwrap();
+        let mut plant = aem_model::Plant::new(Parameters::default(), &config, Some(&sets), 0.0, 12_000.0).unwrap();
         for k in 0..400 {
             plant.step(&config, 0.0, 0.0, if k < 100 { 3_000.0 } else { 20_000.0 }, 1.0).unwrap();
         }

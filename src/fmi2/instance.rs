@@ -6,8 +6,8 @@
 
 use std::ffi::{c_char, CString};
 
-use crate::identify::params_io::ParameterFile;
-use crate::model::{shown, Parameters, Plant, PlantConfig, PlantSettings};
+use aem_model::parameter_file::ParameterFile;
+use aem_model::{shown, Parameters, Plant, PlantConfig, PlantSettings};
 use crate::model_description::{BooleanVariable, Causality, IntegerVariable, RealVariable, StringVariable};
 
 use super::fmu_state::SavedState;
@@ -16,7 +16,7 @@ use super::state_machine::FmiState;
 use super::status::{discard, error, CallResult, Status};
 use super::variables::{
     boolean_parameter_mut, integer_output, integer_parameter_mut, real_input_mut, real_output, real_parameter_mut,
-    string_parameter_mut, Inputs,
+    start_values, string_parameter_mut, Inputs,
 };
 
 /// Relative tolerance when comparing a master's communication point with the FMU's time;
@@ -60,13 +60,14 @@ pub struct Instance {
 impl Instance {
     /// A freshly instantiated FMU with the model description's start values.
     pub fn new(logger: Logger) -> Self {
+        let (params, settings, inputs) = start_values();
         Instance {
             magic: INSTANCE_MAGIC,
             logger,
             state: FmiState::Instantiated,
-            params: Parameters::default(),
-            settings: PlantSettings::default(),
-            inputs: Inputs::default(),
+            params,
+            settings,
+            inputs,
             setpoint_slope: 0.0,
             excursion: false,
             time: 0.0,
@@ -155,7 +156,7 @@ impl Instance {
             &format!(
                 "initialised {what} at t = {} s in steady state: {} modules running, power {} W",
                 self.time,
-                plant.count_in(crate::model::OperatingState::Steady),
+                plant.count_in(aem_model::OperatingState::Steady),
                 plant.hub_power()
             ),
         );

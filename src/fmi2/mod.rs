@@ -2,7 +2,7 @@
 //!
 //! - `exports`: the 34 C functions; catch panics, check pointers and the call sequence.
 //! - `state_machine`: which call is allowed in which state (one table).
-//! - `instance`: FMI semantics on top of [`crate::model::Module`], in safe Rust.
+//! - `instance`: FMI semantics on top of [`aem_model::Module`], in safe Rust.
 //! - `variables`: model description variables ↔ model fields (exhaustive matches).
 //! - `fmu_state`: saved and serialised FMU states.
 //! - `logger`, `status`: the importer's logger and fmi2Status.

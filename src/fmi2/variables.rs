@@ -1,8 +1,9 @@
 //! Maps each variable of the model description to the model. The matches are exhaustive
 //! over the generated [`RealVariable`], [`IntegerVariable`] and [`BooleanVariable`], so the
-//! XML and this code cannot drift apart.
+//! XML and this code cannot drift apart; the model description's start values are the
+//! instance's defaults ([`start_values`]).
 
-use crate::model::{OperatingState, Parameters, Plant, PlantSettings};
+use aem_model::{ModuleParameter, OperatingState, Parameters, Plant, PlantSettings};
 use crate::model_description::{BooleanVariable, IntegerVariable, RealVariable, StringVariable};
 
 /// The instance's input values.
@@ -21,27 +22,53 @@ impl Default for Inputs {
     }
 }
 
-/// The Real parameter field behind `var`, or None if `var` is not a parameter.
-pub fn real_parameter_mut<'a>(params: &'a mut Parameters, settings: &'a mut PlantSettings, var: RealVariable) -> Option<&'a mut f64> {
-    module_parameter_mut(params, var).or_else(|| setting_mut(settings, var))
+/// The model description's start values: module parameters, hub settings and inputs.
+pub fn start_values() -> (Parameters, PlantSettings, Inputs) {
+    let (mut params, mut settings, mut inputs) = (Parameters::default(), PlantSettings::default(), Inputs::default());
+    for var in RealVariable::ALL {
+        let slot = real_parameter_mut(&mut params, &mut settings, var).or_else(|| real_input_mut(&mut inputs, var));
+        if let (Some(slot), Some(start)) = (slot, var.start()) {
+            *slot = start;
+        }
+    }
+    for var in IntegerVariable::ALL {
+        if let (Some(slot), Some(start)) = (integer_parameter_mut(&mut settings, var), var.start()) {
+            *slot = start;
+        }
+    }
+    for var in BooleanVariable::ALL {
+        if let (Some(slot), Some(start)) = (boolean_parameter_mut(&mut settings, var), var.start()) {
+            *slot = start;
+        }
+    }
+    (params, settings, inputs)
 }
 
-/// The field of a module's [`Parameters`] behind `var` (Table I and the operating window),
-/// or None if `var` is not one of them.
-pub fn module_parameter_mut(params: &mut Parameters, var: RealVariable) -> Option<&mut f64> {
+/// The Real parameter field behind `var`, or None if `var` is not a parameter.
+pub fn real_parameter_mut<'a>(params: &'a mut Parameters, settings: &'a mut PlantSettings, var: RealVariable) -> Option<&'a mut f64> {
+    match module_parameter(var) {
+        Some(parameter) => Some(params.field_mut(parameter)),
+        None => setting_mut(settings, var),
+    }
+}
+
+/// The module parameter (Table I and the operating window) behind `var`, or None if `var`
+/// is not one of them.
+pub fn module_parameter(var: RealVariable) -> Option<ModuleParameter> {
+    use ModuleParameter as P;
     use RealVariable::*;
     match var {
-        Gain => Some(&mut params.gain),
-        TauZero => Some(&mut params.tau_zero),
-        TauPole1 => Some(&mut params.tau_pole1),
-        TauPole2 => Some(&mut params.tau_pole2),
-        RampUpLimit => Some(&mut params.ramp_up_limit),
-        VoltageIntercept => Some(&mut params.voltage_intercept),
-        OhmicResistance => Some(&mut params.ohmic_resistance),
-        H2Coefficient => Some(&mut params.h2_coefficient),
-        NominalCurrent => Some(&mut params.nominal_current),
-        MinSetpoint => Some(&mut params.min_setpoint),
-        MaxSetpoint => Some(&mut params.max_setpoint),
+        Gain => Some(P::Gain),
+        TauZero => Some(P::TauZero),
+        TauPole1 => Some(P::TauPole1),
+        TauPole2 => Some(P::TauPole2),
+        RampUpLimit => Some(P::RampUpLimit),
+        VoltageIntercept => Some(P::VoltageIntercept),
+        OhmicResistance => Some(P::OhmicResistance),
+        H2Coefficient => Some(P::H2Coefficient),
+        NominalCurrent => Some(P::NominalCurrent),
+        MinSetpoint => Some(P::MinSetpoint),
+        MaxSetpoint => Some(P::MaxSetpoint),
         Hysteresis | ColdStartTime | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration
         | ParameterSpread | Setpoint | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced
         | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts => None,
@@ -149,18 +176,43 @@ mod tests {
     use crate::model_description::Causality;
 
     #[test]
-    fn every_variable_of_the_xml_maps_to_exactly_one_role_and_its_start_value() {
-        let defaults = PlantSettings::default();
-        let plant = Plant::new(Parameters::default(), &defaults.config().unwrap(), None, 100.0, 0.0).unwrap();
+    fn module_parameters_have_the_model_description_names_and_units() {
+        let mapped: Vec<ModuleParameter> = RealVariable::ALL.into_iter().filter_map(module_parameter).collect();
+        assert_eq!(mapped, ModuleParameter::ALL, "every module parameter once, in the XML's order");
         for var in RealVariable::ALL {
-            let (mut p, mut s, mut i) = (Parameters::default(), defaults, Inputs::default());
+            if let Some(parameter) = module_parameter(var) {
+                assert_eq!((parameter.name(), parameter.unit()), (var.name(), var.unit()), "{var:?}");
+            }
+        }
+    }
+
+    /// The repository's model description carries the model's defaults (the paper's Table I
+    /// and the assumed start-up values), so `aem-identify` (which knows only the model) and
+    /// the FMU start from the same values. A binary built from another model description
+    /// (packaging with identified parameters) has other start values on purpose.
+    #[test]
+    fn the_repository_start_values_are_the_model_defaults() {
+        if option_env!("AEM_MODEL_DESCRIPTION").is_some_and(|path| !path.is_empty()) {
+            return;
+        }
+        let (params, settings, _) = start_values();
+        assert_eq!(params, Parameters::default());
+        assert_eq!(settings, PlantSettings::default());
+    }
+
+    #[test]
+    fn every_variable_of_the_xml_maps_to_exactly_one_role_and_its_start_value() {
+        let (params, defaults, inputs) = start_values();
+        let plant = Plant::new(params, &defaults.config().unwrap(), None, 100.0, 0.0).unwrap();
+        for var in RealVariable::ALL {
+            let (mut p, mut s, mut i) = (params, defaults, inputs);
             let param = real_parameter_mut(&mut p, &mut s, var).map(|v| *v);
             assert_eq!(param.is_some(), var.causality() == Causality::Parameter, "{var:?}");
             assert_eq!(real_output(var, &plant).is_some(), var.causality() == Causality::Output, "{var:?}");
             let input = real_input_mut(&mut i, var).map(|v| *v);
             assert_eq!(input.is_some(), var.causality() == Causality::Input, "{var:?}");
             if var.causality() != Causality::Output {
-                assert_eq!(param.or(input), var.start(), "{var:?}: the model's default is the XML's start");
+                assert_eq!(param.or(input), var.start(), "{var:?}: the instance's default is the XML's start");
             }
         }
         for var in IntegerVariable::ALL {

@@ -21,5 +21,5 @@ def test_plot_of_a_validation_trace(tmp_path):
     assert result.returncode == 0, result.stderr
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # The trace header is the one the tool writes.
-    rust = (ROOT / "src" / "identify" / "validate.rs").read_text()
+    rust = (ROOT / "crates" / "identify" / "src" / "validate.rs").read_text()
     assert f'"{HEADER}"' in rust

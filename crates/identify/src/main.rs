@@ -19,12 +19,12 @@ use std::time::Instant;
 use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use aem_electrolyser::identify::columns::ColumnMap;
-use aem_electrolyser::identify::params_io::ParameterFile;
-use aem_electrolyser::identify::read::{self, ModuleLog, ReadOptions};
-use aem_electrolyser::identify::synthetic::{self, CampaignSpec, CsvOptions};
-use aem_electrolyser::identify::validate::{self, ValidateOptions};
-use aem_electrolyser::identify::{self as id, Error, FitOptions};
+use aem_identify::columns::ColumnMap;
+use aem_model::parameter_file::ParameterFile;
+use aem_identify::read::{self, ModuleLog, ReadOptions};
+use aem_identify::synthetic::{self, CampaignSpec, CsvOptions};
+use aem_identify::validate::{self, ValidateOptions};
+use aem_identify::{self as id, Error, FitOptions};
 
 #[derive(Parser)]
 #[command(name = "aem-identify", version, about = "Identify the AEM electrolyser model's parameters from operational data")]

@@ -1,13 +1,13 @@
 //! A parameter the data cannot determine is flagged, and the others are still identified.
 
-use aem_electrolyser::identify::read::{self, ReadOptions};
-use aem_electrolyser::identify::synthetic::{self, CampaignSpec, CsvOptions};
-use aem_electrolyser::identify::{self, FitOptions};
+use aem_identify::read::{self, ReadOptions};
+use aem_identify::synthetic::{self, CampaignSpec, CsvOptions};
+use aem_identify::{self as identify, FitOptions};
 
 #[test]
 fn a_rate_limit_that_never_binds_is_flagged_not_invented() {
     // 50 A/s: far faster than any step's rise, so the data say nothing about it.
-    let truth = aem_electrolyser::model::Parameters { ramp_up_limit: 50.0, ..CampaignSpec::test_truth() };
+    let truth = aem_model::Parameters { ramp_up_limit: 50.0, ..CampaignSpec::test_truth() };
     let spec = CampaignSpec { truth, ..CampaignSpec::default() };
     let days = synthetic::generate_campaign(&spec, 2).unwrap();
     let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("identify_flags");

@@ -28,5 +28,14 @@ impl fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
+impl From<aem_model::parameter_file::ParameterFileError> for Error {
+    fn from(e: aem_model::parameter_file::ParameterFileError) -> Self {
+        match e.line {
+            Some(line) => Error::Content { path: e.path, line, message: e.message },
+            None => Error::Io { path: e.path, message: e.message },
+        }
+    }
+}
+
 /// Result of the identification tool.
 pub type Result<T> = std::result::Result<T, Error>;

@@ -104,14 +104,13 @@ pub struct OperationParameters {
 
 impl Default for OperationParameters {
     fn default() -> Self {
-        use crate::model_description::start;
         OperationParameters {
-            cold_start_time: start::COLD_START_TIME,
-            warm_start_time: start::WARM_START_TIME,
-            start_power: start::START_POWER,
-            standby_power: start::STANDBY_POWER,
-            standby_duration: start::STANDBY_DURATION,
-            stop_duration: start::STOP_DURATION,
+            cold_start_time: 300.0,
+            warm_start_time: 30.0,
+            start_power: 300.0,
+            standby_power: 100.0,
+            standby_duration: 3600.0,
+            stop_duration: 60.0,
             below_minimum: BelowMinimum::Minimum,
         }
     }

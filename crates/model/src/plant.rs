@@ -57,23 +57,24 @@ pub struct PlantSettings {
 }
 
 impl Default for PlantSettings {
-    /// The model description's start values: one module that never stops.
+    /// One module that never stops (the paper's model), with the assumed start-up and standby
+    /// parameters of [`OperationParameters::default`]; the FMU's start values are the same.
     fn default() -> Self {
-        use crate::model_description::start;
+        let operation = OperationParameters::default();
         PlantSettings {
-            n_modules: start::N_MODULES,
-            dispatch: start::DISPATCH,
-            below_minimum: start::BELOW_MINIMUM,
-            power_input: start::POWER_INPUT,
-            hysteresis: start::HYSTERESIS,
-            cold_start_time: start::COLD_START_TIME,
-            warm_start_time: start::WARM_START_TIME,
-            start_power: start::START_POWER,
-            standby_power: start::STANDBY_POWER,
-            standby_duration: start::STANDBY_DURATION,
-            stop_duration: start::STOP_DURATION,
-            parameter_spread: start::PARAMETER_SPREAD,
-            spread_seed: start::SPREAD_SEED,
+            n_modules: 1,
+            dispatch: DispatchPolicy::Equal as i32,
+            below_minimum: BelowMinimum::Minimum as i32,
+            power_input: false,
+            hysteresis: 5.0,
+            cold_start_time: operation.cold_start_time,
+            warm_start_time: operation.warm_start_time,
+            start_power: operation.start_power,
+            standby_power: operation.standby_power,
+            standby_duration: operation.standby_duration,
+            stop_duration: operation.stop_duration,
+            parameter_spread: 0.0,
+            spread_seed: 1,
         }
     }
 }

@@ -15,7 +15,7 @@
 //! 3. Optionally, a whole-record (trajectory) fit of all five parameters to the absolute
 //!    current of every steady running row cross-checks the step fit.
 
-use crate::model::{Module, Parameters};
+use aem_model::{Module, Parameters};
 
 use nalgebra::DMatrix;
 
@@ -652,8 +652,8 @@ fn initial_ramp(set: &StepSet, steps: &[usize], params: &Parameters) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::segments::{find_steps, Segment, StepOptions};
-    use crate::identify::synthetic::CampaignSpec;
+    use crate::segments::{find_steps, Segment, StepOptions};
+    use crate::synthetic::CampaignSpec;
 
     /// A noise-free segment: the model itself driven through a schedule of levels
     /// (row n's setpoint acts over (t[n−1], t[n]]).

@@ -276,8 +276,8 @@ impl LaneBank {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::dispatch::setpoint_for_power;
-    use crate::model::spread::spread_parameters;
+    use crate::dispatch::setpoint_for_power;
+    use crate::spread::spread_parameters;
 
     /// 71 parameter sets (more than a batch, not a multiple of four) at states that track,
     /// ramp and fall.

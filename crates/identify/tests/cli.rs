@@ -5,8 +5,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use aem_electrolyser::identify::params_io::ParameterFile;
-use aem_electrolyser::identify::validate::TRACE_HEADER;
+use aem_model::parameter_file::ParameterFile;
+use aem_identify::validate::TRACE_HEADER;
 
 fn tool(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_aem-identify")).args(args).output().expect("run aem-identify")

@@ -1,14 +1,13 @@
-//! Parameters of one AEM electrolyser module (the paper's Table I) and their validation.
+//! Parameters of one AEM electrolyser module (the paper's Table I), their validation, and
+//! their names and units ([`ModuleParameter`]) as the FMU and the parameter files spell them.
 
 use std::fmt;
 
-use crate::model_description::start;
 use super::select::clamped;
 
-/// Parameters of one module, in the units of the model description.
+/// Parameters of one module.
 ///
-/// Defaults are the start values of `modelDescription.xml` (the paper's Table I,
-/// nominal 55 °C and 29 bar); see [`Parameters::default`].
+/// Defaults are the paper's Table I (nominal 55 °C and 29 bar); see [`Parameters::default`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Parameters {
     /// K: stack current per % of hydrogen-production setpoint [A/%].
@@ -59,43 +58,120 @@ impl fmt::Display for ParameterError {
 impl std::error::Error for ParameterError {}
 
 impl Default for Parameters {
-    /// The paper's Table I: the start values of `modelDescription.xml`.
+    /// The paper's Table I and its 60…100 % operating window (the FMU's model description
+    /// carries the same start values; its tests check that they agree).
     fn default() -> Self {
         Parameters {
-            gain: start::GAIN,
-            tau_zero: start::TAU_ZERO,
-            tau_pole1: start::TAU_POLE1,
-            tau_pole2: start::TAU_POLE2,
-            ramp_up_limit: start::RAMP_UP_LIMIT,
-            voltage_intercept: start::VOLTAGE_INTERCEPT,
-            ohmic_resistance: start::OHMIC_RESISTANCE,
-            h2_coefficient: start::H2_COEFFICIENT,
-            nominal_current: start::NOMINAL_CURRENT,
-            min_setpoint: start::MIN_SETPOINT,
-            max_setpoint: start::MAX_SETPOINT,
+            gain: 0.534,
+            tau_zero: 95.371,
+            tau_pole1: 1.995,
+            tau_pole2: 113.568,
+            ramp_up_limit: 0.22,
+            voltage_intercept: 35.75,
+            ohmic_resistance: 0.1529,
+            h2_coefficient: 9.6174,
+            nominal_current: 53.35,
+            min_setpoint: 60.0,
+            max_setpoint: 100.0,
         }
     }
 }
 
+/// One field of [`Parameters`], named as in the FMU's model description and in parameter
+/// files: the one map from a parameter's name to its place, shared by the FMU and the
+/// identification.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ModuleParameter {
+    Gain,
+    TauZero,
+    TauPole1,
+    TauPole2,
+    RampUpLimit,
+    VoltageIntercept,
+    OhmicResistance,
+    H2Coefficient,
+    NominalCurrent,
+    MinSetpoint,
+    MaxSetpoint,
+}
+
+impl ModuleParameter {
+    /// Every module parameter, in the model description's order.
+    pub const ALL: [ModuleParameter; 11] = {
+        use ModuleParameter::*;
+        [Gain, TauZero, TauPole1, TauPole2, RampUpLimit, VoltageIntercept, OhmicResistance, H2Coefficient, NominalCurrent, MinSetpoint, MaxSetpoint]
+    };
+
+    /// The name (model description, parameter files).
+    pub fn name(self) -> &'static str {
+        use ModuleParameter::*;
+        match self {
+            Gain => "gain",
+            TauZero => "tauZero",
+            TauPole1 => "tauPole1",
+            TauPole2 => "tauPole2",
+            RampUpLimit => "rampUpLimit",
+            VoltageIntercept => "voltageIntercept",
+            OhmicResistance => "ohmicResistance",
+            H2Coefficient => "h2Coefficient",
+            NominalCurrent => "nominalCurrent",
+            MinSetpoint => "minSetpoint",
+            MaxSetpoint => "maxSetpoint",
+        }
+    }
+
+    /// The unit, spelt as in the model description's unit definitions.
+    pub fn unit(self) -> &'static str {
+        use ModuleParameter::*;
+        match self {
+            Gain => "A/%",
+            TauZero | TauPole1 | TauPole2 => "s",
+            RampUpLimit => "A/s",
+            VoltageIntercept => "V",
+            OhmicResistance => "Ohm",
+            H2Coefficient => "Nl/(h.A)",
+            NominalCurrent => "A",
+            MinSetpoint | MaxSetpoint => "%",
+        }
+    }
+
+    /// The parameter called `name`, if there is one.
+    pub fn from_name(name: &str) -> Option<ModuleParameter> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+}
+
 impl Parameters {
+    /// The field behind `parameter`, in its unit.
+    pub fn field_mut(&mut self, parameter: ModuleParameter) -> &mut f64 {
+        use ModuleParameter::*;
+        match parameter {
+            Gain => &mut self.gain,
+            TauZero => &mut self.tau_zero,
+            TauPole1 => &mut self.tau_pole1,
+            TauPole2 => &mut self.tau_pole2,
+            RampUpLimit => &mut self.ramp_up_limit,
+            VoltageIntercept => &mut self.voltage_intercept,
+            OhmicResistance => &mut self.ohmic_resistance,
+            H2Coefficient => &mut self.h2_coefficient,
+            NominalCurrent => &mut self.nominal_current,
+            MinSetpoint => &mut self.min_setpoint,
+            MaxSetpoint => &mut self.max_setpoint,
+        }
+    }
+
+    /// The value of `parameter`, in its unit.
+    pub fn get(&self, parameter: ModuleParameter) -> f64 {
+        let mut copy = *self;
+        *copy.field_mut(parameter)
+    }
+
     /// Checks that the set describes a module the model can simulate.
     pub fn validate(&self) -> Result<(), ParameterError> {
-        let fields: [(&'static str, f64); 11] = [
-            ("gain", self.gain),
-            ("tauZero", self.tau_zero),
-            ("tauPole1", self.tau_pole1),
-            ("tauPole2", self.tau_pole2),
-            ("rampUpLimit", self.ramp_up_limit),
-            ("voltageIntercept", self.voltage_intercept),
-            ("ohmicResistance", self.ohmic_resistance),
-            ("h2Coefficient", self.h2_coefficient),
-            ("nominalCurrent", self.nominal_current),
-            ("minSetpoint", self.min_setpoint),
-            ("maxSetpoint", self.max_setpoint),
-        ];
-        for (name, value) in fields {
+        for parameter in ModuleParameter::ALL {
+            let value = self.get(parameter);
             if !value.is_finite() {
-                return Err(err(name, value, "must be a finite number"));
+                return Err(err(parameter.name(), value, "must be a finite number"));
             }
         }
         positive("gain", self.gain)?;
@@ -193,6 +269,20 @@ mod tests {
         let p = Parameters::default();
         assert_eq!(p.validate(), Ok(()));
         assert!((p.steady_current(100.0) - 53.4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn every_parameter_has_its_own_field_and_name() {
+        let mut p = Parameters::default();
+        for (k, parameter) in ModuleParameter::ALL.into_iter().enumerate() {
+            *p.field_mut(parameter) = k as f64 + 0.5;
+            assert_eq!(ModuleParameter::from_name(parameter.name()), Some(parameter));
+        }
+        // Eleven distinct fields: each got its own value.
+        for (k, parameter) in ModuleParameter::ALL.into_iter().enumerate() {
+            assert_eq!(p.get(parameter), k as f64 + 0.5, "{parameter:?}");
+        }
+        assert_eq!(ModuleParameter::from_name("current"), None);
     }
 
     #[test]

@@ -1,5 +1,5 @@
 use super::*;
-use crate::model::Module;
+use crate::Module;
 
 fn config(n: u32, policy: DispatchPolicy, below: BelowMinimum) -> HubConfig {
     HubConfig { n_modules: n, policy, operation: OperationParameters { below_minimum: below, ..Default::default() }, ..Default::default() }
@@ -169,7 +169,7 @@ fn results_do_not_depend_on_the_step_size() {
 #[test]
 fn individual_parameter_sets_share_a_power_reference() {
     let base = Parameters::default();
-    let sets = crate::model::spread::spread_parameters(&base, 50, 0.03, 7);
+    let sets = crate::spread::spread_parameters(&base, 50, 0.03, 7);
     let mut hub = Hub::with_parameter_sets(sets, config(50, DispatchPolicy::Equal, BelowMinimum::Off), Demand::Power(0.0)).unwrap();
     // 1800 W per module: inside every spread module's window, so each inverts its own curve.
     run(&mut hub, Demand::Power(90_000.0), 4.0 * 3600.0, 5.0);
@@ -246,9 +246,9 @@ fn assert_lanes_match_scalar(hub: Hub, demand: impl Fn(usize) -> Demand, seconds
 fn lanes_step_individual_modules_as_the_scalar_path_does_bit_for_bit() {
     let base = Parameters::default();
     let n = 37; // not a multiple of four lanes or of a chunk
-    let rated = n as f64 * crate::model::dispatch::power_at_setpoint(&base, 100.0);
+    let rated = n as f64 * crate::dispatch::power_at_setpoint(&base, 100.0);
     for (policy, below) in [(DispatchPolicy::Equal, BelowMinimum::Standby), (DispatchPolicy::Sequential, BelowMinimum::Off), (DispatchPolicy::Rotation, BelowMinimum::Standby)] {
-        let sets = crate::model::spread::spread_parameters(&base, n, 0.03, 11);
+        let sets = crate::spread::spread_parameters(&base, n, 0.03, 11);
         let hub = Hub::with_parameter_sets(sets.clone(), config(n as u32, policy, below), Demand::Power(0.6 * rated)).unwrap();
         assert_lanes_match_scalar(hub, |t| Demand::Power(gusty(t) * rated), 1500, 1.0);
         let hub = Hub::with_parameter_sets(sets, config(n as u32, policy, below), Demand::Setpoint(80.0)).unwrap();
@@ -261,8 +261,8 @@ fn thousands_of_modules_step_on_every_core_with_the_same_bits() {
     // Above PARALLEL_FROM groups the chunks run on rayon's pool; the sums are still in order.
     let base = Parameters::default();
     let n = PARALLEL_FROM + 321;
-    let rated = n as f64 * crate::model::dispatch::power_at_setpoint(&base, 100.0);
-    let sets = crate::model::spread::spread_parameters(&base, n, 0.03, 5);
+    let rated = n as f64 * crate::dispatch::power_at_setpoint(&base, 100.0);
+    let sets = crate::spread::spread_parameters(&base, n, 0.03, 5);
     let hub = Hub::with_parameter_sets(sets, config(n as u32, DispatchPolicy::Equal, BelowMinimum::Standby), Demand::Power(0.7 * rated)).unwrap();
     assert_lanes_match_scalar(hub, |t| Demand::Power(gusty(40 * t) * rated), 60, 1.0);
 }
@@ -270,8 +270,8 @@ fn thousands_of_modules_step_on_every_core_with_the_same_bits() {
 #[test]
 fn kept_survey_and_readings_are_the_ones_summed_afresh() {
     let base = Parameters::default();
-    let rated = 40.0 * crate::model::dispatch::power_at_setpoint(&base, 100.0);
-    let sets = crate::model::spread::spread_parameters(&base, 40, 0.03, 2);
+    let rated = 40.0 * crate::dispatch::power_at_setpoint(&base, 100.0);
+    let sets = crate::spread::spread_parameters(&base, 40, 0.03, 2);
     let mut hub = Hub::with_parameter_sets(sets, config(40, DispatchPolicy::Sequential, BelowMinimum::Standby), Demand::Power(0.5 * rated)).unwrap();
     for t in 0..900 {
         hub.step(Demand::Power(gusty(t) * rated), 1.0).unwrap();

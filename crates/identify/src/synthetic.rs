@@ -17,7 +17,7 @@
 
 use std::fmt::Write as _;
 
-use crate::model::{CurrentState, Module, ModuleState, ParameterError, Parameters};
+use aem_model::{CurrentState, Module, ModuleState, ParameterError, Parameters};
 
 /// Seeded SplitMix64 generator with Gaussian draws (Box–Muller).
 #[derive(Clone, Debug)]

@@ -8,7 +8,7 @@ use serde_json::{json, Value};
 use super::dynamics::Estimate;
 use super::read::BadRow;
 use super::{ModuleFit, Stage};
-use crate::identify::params_io::Spread;
+use aem_model::parameter_file::Spread;
 
 /// `v` with `digits` significant digits.
 pub fn sig(v: f64, digits: usize) -> String {

@@ -38,7 +38,7 @@ pub struct StepOptions {
 
 impl Default for StepOptions {
     fn default() -> Self {
-        use crate::model_description::start;
+        let window = aem_model::Parameters::default();
         StepOptions {
             running_current: 1.0,
             settle: 600.0,
@@ -46,7 +46,7 @@ impl Default for StepOptions {
             min_step: 1.0,
             pre_window: 60.0,
             min_response: 60.0,
-            setpoint_window: (start::MIN_SETPOINT, start::MAX_SETPOINT),
+            setpoint_window: (window.min_setpoint, window.max_setpoint),
         }
     }
 }

@@ -1,5 +1,6 @@
-//! The parameter file: the FMU's parameter names and units (from `modelDescription.xml`),
-//! each value with its standard error, plus the fit statistics.
+//! The parameter file: per-module parameter sets by the FMU's parameter names and units
+//! ([`ModuleParameter`]), each value with its standard error, plus the fit statistics.
+//! `aem-identify` writes it; the FMU's `moduleParameterFile` reads it.
 //!
 //! ```json
 //! { "generator": "aem-identify 0.1.0",
@@ -11,50 +12,37 @@
 //!   "spread": { … } }
 //! ```
 //! `source` is `identified`, or `default` for parameters the data do not determine (the
-//! model description's start value is kept, e.g. nominalCurrent, minSetpoint, maxSetpoint).
+//! default value is kept, e.g. nominalCurrent, minSetpoint, maxSetpoint).
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::fmt;
+use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::model::Parameters;
-use crate::fmi2::variables::module_parameter_mut;
-use crate::model_description::RealVariable;
+use crate::{ModuleParameter, Parameters};
 
-use super::error::{Error, Result};
-
-/// The FMU's module parameters (Table I and the operating window; not the hub's settings):
-/// (name, unit) in model-description order.
-pub fn fmu_parameters() -> Vec<(&'static str, &'static str)> {
-    RealVariable::ALL
-        .iter()
-        .filter(|v| module_parameter_mut(&mut Parameters::default(), **v).is_some())
-        .map(|v| (v.name(), v.unit()))
-        .collect()
+/// A parameter file that cannot be read; shown as `path: message` or `path:line: message`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParameterFileError {
+    /// The file.
+    pub path: PathBuf,
+    /// The line (1-based) where its content is wrong, or None if it could not be read.
+    pub line: Option<u64>,
+    /// What is wrong.
+    pub message: String,
 }
 
-/// The module parameter called `name` (model-description name).
-fn field<'a>(p: &'a mut Parameters, name: &str) -> Option<&'a mut f64> {
-    RealVariable::ALL.into_iter().find(|v| v.name() == name).and_then(|v| module_parameter_mut(p, v))
-}
-
-/// Value of the module parameter called `name` (model-description name).
-pub fn get(p: &Parameters, name: &str) -> Option<f64> {
-    let mut p = *p;
-    field(&mut p, name).map(|v| *v)
-}
-
-/// Sets the module parameter called `name`; false for an unknown name.
-pub fn set(p: &mut Parameters, name: &str, value: f64) -> bool {
-    match field(p, name) {
-        Some(slot) => {
-            *slot = value;
-            true
+impl fmt::Display for ParameterFileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(line) => write!(f, "{}:{line}: {}", self.path.display(), self.message),
+            None => write!(f, "{}: {}", self.path.display(), self.message),
         }
-        None => false,
     }
 }
+
+impl std::error::Error for ParameterFileError {}
 
 /// Where a parameter value comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -130,11 +118,12 @@ pub struct ParameterFile {
 
 impl ParameterFile {
     /// Reads a parameter file.
-    pub fn load(path: &Path) -> Result<ParameterFile> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Io { path: path.into(), message: e.to_string() })?;
-        serde_json::from_str(&text).map_err(|e| Error::Content {
+    pub fn load(path: &Path) -> Result<ParameterFile, ParameterFileError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| ParameterFileError { path: path.into(), line: None, message: e.to_string() })?;
+        serde_json::from_str(&text).map_err(|e| ParameterFileError {
             path: path.into(),
-            line: e.line() as u64,
+            line: Some(e.line() as u64),
             message: format!("not a parameter file: {e}"),
         })
     }
@@ -155,7 +144,7 @@ impl ParameterFile {
 }
 
 impl ModuleEntry {
-    /// The model's parameters: the file's values over the model description's start values.
+    /// The model's parameters: the file's values over the defaults (Table I).
     /// Unknown names, wrong units and invalid sets are refused.
     pub fn parameters(&self) -> std::result::Result<Parameters, String> {
         self.parameters_over(Parameters::default())
@@ -164,17 +153,16 @@ impl ModuleEntry {
     /// The model's parameters: the file's values over `base`. Unknown names, wrong units and
     /// invalid sets are refused.
     pub fn parameters_over(&self, base: Parameters) -> std::result::Result<Parameters, String> {
-        let known = fmu_parameters();
         let mut p = base;
         for (name, entry) in &self.parameters {
-            let Some((_, unit)) = known.iter().find(|(n, _)| n == name) else {
-                let names: Vec<&str> = known.iter().map(|(n, _)| *n).collect();
+            let Some(parameter) = ModuleParameter::from_name(name) else {
+                let names: Vec<&str> = ModuleParameter::ALL.iter().map(|p| p.name()).collect();
                 return Err(format!("unknown parameter `{name}` (the FMU's parameters: {})", names.join(", ")));
             };
-            if entry.unit != *unit {
-                return Err(format!("parameter `{name}` has unit `{}`, the FMU's is `{unit}`", entry.unit));
+            if entry.unit != parameter.unit() {
+                return Err(format!("parameter `{name}` has unit `{}`, the FMU's is `{}`", entry.unit, parameter.unit()));
             }
-            set(&mut p, name, entry.value);
+            *p.field_mut(parameter) = entry.value;
         }
         p.validate().map_err(|e| e.to_string())?;
         Ok(p)
@@ -186,15 +174,17 @@ mod tests {
     use super::*;
 
     #[test]
-    fn every_fmu_parameter_has_an_accessor() {
-        let mut p = Parameters::default();
-        for (name, _) in fmu_parameters() {
-            let v = get(&p, name).unwrap_or_else(|| panic!("no getter for {name}"));
-            assert!(set(&mut p, name, v + 1.0), "no setter for {name}");
-            assert_eq!(get(&p, name), Some(v + 1.0));
-        }
-        assert_eq!(fmu_parameters().len(), 11);
-        assert!(get(&p, "current").is_none());
+    fn a_file_that_is_not_a_parameter_file_names_its_line() {
+        let dir = std::env::temp_dir().join(format!("aem-model-parameter-file-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("bad.json");
+        std::fs::write(&path, "{\n  \"generator\": \"x\",\n  \"modules\": 3\n}\n").unwrap();
+        let e = ParameterFile::load(&path).unwrap_err();
+        assert_eq!(e.line, Some(3), "{e}");
+        assert!(e.to_string().starts_with(&format!("{}:3: not a parameter file", path.display())), "{e}");
+        let missing = ParameterFile::load(&dir.join("missing.json")).unwrap_err();
+        assert_eq!(missing.line, None);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

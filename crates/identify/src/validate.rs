@@ -10,7 +10,7 @@
 use std::io::Write as _;
 use std::path::Path;
 
-use crate::model::{Module, Parameters};
+use aem_model::{Module, Parameters};
 
 use super::columns::Channel;
 use super::error::{Error, Result};

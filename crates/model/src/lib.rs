@@ -1,4 +1,9 @@
-//! The electrolyser model in plain Rust, with no knowledge of FMI.
+//! The AEM electrolyser model after Omtveit, Dannappel, You and Uhlen, "A Closed-Loop Model
+//! of an Anion Exchange Membrane Electrolyser Based on Operational Data" (IEEE ISGT 2026), in
+//! plain safe Rust with no knowledge of FMI, command lines or CSV.
+//!
+//! Dependencies point here: the FMU (`aem-electrolyser-fmu`, the C ABI) and the identification
+//! (`aem-identify`) both use this crate; it uses neither.
 //!
 //! - [`parameters`]: Table I of the paper and its validation.
 //! - [`dynamics`]: setpoint → stack current, G(s) with a rising-rate limit, exact steps.
@@ -8,6 +13,12 @@
 //! - [`spread`]: seeded per-module parameter sets.
 //! - [`operation`]: a module's operating states (idle, curve, steady, standby, blowdown).
 //! - [`plant`]: what an FMU instance simulates: one module or a hub, with its settings.
+//! - [`parameter_file`]: the JSON file of per-module parameter sets that `aem-identify`
+//!   writes and the FMU reads.
+
+#![deny(unsafe_op_in_unsafe_fn)]
+// `!(x > 0.0)` is used on purpose: it is true for NaN, which must be refused too.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod dispatch;
 pub mod dynamics;
@@ -15,6 +26,7 @@ pub mod hub;
 pub mod lanes;
 pub mod module;
 pub mod operation;
+pub mod parameter_file;
 pub mod parameters;
 pub mod plant;
 pub mod spread;
@@ -23,7 +35,7 @@ mod select;
 
 pub use dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
 pub use module::{Module, ModuleState, StepError};
-pub use parameters::{ParameterError, Parameters};
+pub use parameters::{ModuleParameter, ParameterError, Parameters};
 pub use dispatch::{Demand, DispatchPolicy};
 pub use hub::{Hub, HubConfig};
 pub use operation::{BelowMinimum, OperatingState, OperationParameters};

@@ -1,5 +1,5 @@
 use super::*;
-use crate::model::dispatch::setpoint_for_power;
+use crate::dispatch::setpoint_for_power;
 
 fn hub_settings(n: i32, dispatch: i32, below: i32) -> PlantSettings {
     PlantSettings { n_modules: n, dispatch, below_minimum: below, ..PlantSettings::default() }

@@ -13,7 +13,7 @@
 
 use nalgebra::DMatrix;
 
-use crate::model::Parameters;
+use aem_model::Parameters;
 
 use super::dynamics::DynamicsFit;
 use super::lsq::{self, Residuals};

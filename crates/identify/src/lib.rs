@@ -1,6 +1,9 @@
 //! Identification of the model's parameters from a user's operational data (the paper's §III),
-//! sharing the model code with the FMU: every simulated response comes from
-//! [`crate::model::Module`].
+//! as a library and the `aem-identify` command (`main.rs`).
+//!
+//! Dependencies: this crate uses the model crate `aem-model` only, never the FMU; every
+//! simulated response comes from [`aem_model::Module`], the code the FMU steps, and the result
+//! is the model's [`aem_model::parameter_file`], which the FMU reads.
 //!
 //! Pipeline per module ([`fit_module`]):
 //! 1. [`read`]: CSV files into gap-free blocks, bad rows skipped and counted;
@@ -11,9 +14,13 @@
 //! 5. [`structure`]: first- and third-order candidates beside the second order (RMSE, AICc);
 //! 6. [`hydrogen`]: flow = c·I and the Faraday efficiency for the cell count.
 //!
-//! [`params_io`] writes the FMU's parameter names and units with the statistics, [`report`]
-//! the Table-I-like text, [`validate`] compares a held-out day with the identified model, and
+//! [`parameter_file`] gathers the fits under the FMU's parameter names and units with the
+//! statistics, [`report`] writes the Table-I-like text, [`validate`] compares a held-out day with the identified model, and
 //! [`synthetic`] generates campaigns with known parameters.
+
+#![deny(unsafe_op_in_unsafe_fn)]
+// `!(x > 0.0)` is used on purpose: it is true for NaN, which must be refused too.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod columns;
 pub mod dynamics;
@@ -21,7 +28,6 @@ pub mod error;
 pub mod hydrogen;
 pub mod lsq;
 pub mod modal;
-pub mod params_io;
 pub mod polarisation;
 pub mod read;
 pub mod report;
@@ -34,13 +40,13 @@ pub mod validate;
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use crate::model::Parameters;
+use aem_model::parameter_file::{ModuleEntry, ParameterEntry, ParameterFile, Source, Spread};
+use aem_model::{ModuleParameter, Parameters};
 
 pub use error::{Error, Result};
 
 use dynamics::{DynamicsFit, DynamicsOptions, Estimate};
 use hydrogen::HydrogenFit;
-use params_io::{ParameterEntry, ParameterFile, Source, Spread};
 use polarisation::{PolarisationFit, PolarisationOptions};
 use read::{BadRowCounts, ModuleLog};
 use segments::StepOptions;
@@ -276,7 +282,8 @@ pub fn fit_module(log: &ModuleLog, options: &FitOptions) -> ModuleFit {
 /// Spread of each identified parameter over the modules that identified it.
 pub fn spread(fits: &[ModuleFit]) -> BTreeMap<String, Spread> {
     let mut out = BTreeMap::new();
-    for (name, unit) in params_io::fmu_parameters() {
+    for parameter in ModuleParameter::ALL {
+        let (name, unit) = (parameter.name(), parameter.unit());
         let values: Vec<f64> = fits.iter().filter_map(|f| f.estimates.get(name).map(|e| e.value)).collect();
         if values.len() < 2 {
             continue;
@@ -303,13 +310,14 @@ pub fn parameter_file(fits: &[ModuleFit]) -> ParameterFile {
     let modules = fits
         .iter()
         .map(|fit| {
-            let parameters = params_io::fmu_parameters()
+            let parameters = ModuleParameter::ALL
                 .into_iter()
-                .map(|(name, unit)| {
+                .map(|parameter| {
+                    let name = parameter.name();
                     let estimate = fit.estimates.get(name);
                     let entry = ParameterEntry {
-                        value: params_io::get(&fit.parameters, name).unwrap_or(f64::NAN),
-                        unit: unit.to_string(),
+                        value: fit.parameters.get(parameter),
+                        unit: parameter.unit().to_string(),
                         standard_error: estimate.map(|e| e.standard_error).filter(|s| s.is_finite()),
                         poorly_determined: estimate.map(|_| fit.is_poorly_determined(name)),
                         source: if estimate.is_some() { Source::Identified } else { Source::Default },
@@ -317,7 +325,7 @@ pub fn parameter_file(fits: &[ModuleFit]) -> ParameterFile {
                     (name.to_string(), entry)
                 })
                 .collect();
-            params_io::ModuleEntry { module: fit.log.id.clone(), parameters, statistics: report::statistics_json(fit) }
+            ModuleEntry { module: fit.log.id.clone(), parameters, statistics: report::statistics_json(fit) }
         })
         .collect();
     let spread = (fits.len() > 1).then(|| spread(fits));

@@ -3,12 +3,13 @@
 
 use std::path::PathBuf;
 
-use aem_electrolyser::identify::columns::ColumnMap;
-use aem_electrolyser::identify::params_io::{self, ParameterFile, Source};
-use aem_electrolyser::identify::read::{self, ReadOptions};
-use aem_electrolyser::identify::synthetic::{self, CampaignSpec, CsvOptions};
-use aem_electrolyser::identify::{self, FitOptions};
-use aem_electrolyser::model::Parameters;
+use aem_identify::columns::ColumnMap;
+use aem_model::parameter_file::{ParameterFile, Source};
+use aem_model::ModuleParameter;
+use aem_identify::read::{self, ReadOptions};
+use aem_identify::synthetic::{self, CampaignSpec, CsvOptions};
+use aem_identify::{self as identify, FitOptions};
+use aem_model::Parameters;
 
 fn module_truth(i: usize) -> Parameters {
     let base = CampaignSpec::test_truth();
@@ -84,7 +85,7 @@ fn three_modules_in_one_log_are_fitted_separately_with_their_spread() {
     for (i, id) in ids.iter().enumerate() {
         let entry = back.module(Some(id)).unwrap();
         let names: Vec<(&str, &str)> = entry.parameters.iter().map(|(n, e)| (n.as_str(), e.unit.as_str())).collect();
-        let mut want = params_io::fmu_parameters();
+        let mut want: Vec<(&str, &str)> = ModuleParameter::ALL.iter().map(|p| (p.name(), p.unit())).collect();
         want.sort();
         assert_eq!(names, want);
         assert_eq!(entry.parameters().unwrap(), fits[i].parameters);

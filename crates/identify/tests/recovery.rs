@@ -6,10 +6,10 @@
 
 use std::path::PathBuf;
 
-use aem_electrolyser::identify::read::{self, BadRow, ReadOptions};
-use aem_electrolyser::identify::synthetic::{self, CampaignSpec, CsvOptions, Injected};
-use aem_electrolyser::identify::validate::{self, ValidateOptions};
-use aem_electrolyser::identify::{self, FitOptions, Stage};
+use aem_identify::read::{self, BadRow, ReadOptions};
+use aem_identify::synthetic::{self, CampaignSpec, CsvOptions, Injected};
+use aem_identify::validate::{self, ValidateOptions};
+use aem_identify::{self as identify, FitOptions, Stage};
 
 /// Accuracy targets (relative unless stated).
 const GAIN: f64 = 0.005;

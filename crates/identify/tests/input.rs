@@ -4,10 +4,10 @@
 
 use std::path::PathBuf;
 
-use aem_electrolyser::identify::columns::{Channel, ColumnMap};
-use aem_electrolyser::identify::read::{self, BadRow, ReadOptions};
-use aem_electrolyser::identify::synthetic::{self, CampaignSpec, CsvOptions};
-use aem_electrolyser::identify::{self, Error, FitOptions, Stage};
+use aem_identify::columns::{Channel, ColumnMap};
+use aem_identify::read::{self, BadRow, ReadOptions};
+use aem_identify::synthetic::{self, CampaignSpec, CsvOptions};
+use aem_identify::{self as identify, Error, FitOptions, Stage};
 
 fn scratch(name: &str) -> PathBuf {
     let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
@@ -118,7 +118,7 @@ fn a_missing_column_disables_only_the_steps_that_need_it() {
     let file = identify::parameter_file(std::slice::from_ref(&fit));
     let h2 = &file.modules[0].parameters["h2Coefficient"];
     assert_eq!(h2.value, 9.6174);
-    assert_eq!(h2.source, identify::params_io::Source::Default);
+    assert_eq!(h2.source, aem_model::parameter_file::Source::Default);
 }
 
 #[test]
