@@ -16,6 +16,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use fmi_sys::fmi2 as sys;
 use sys::{fmi2Boolean, fmi2Component, fmi2FMUstate, fmi2Real, fmi2Status, fmi2StatusKind, fmi2String};
 
+use super::file_location::{file_uri_to_path, Os};
 use super::fmu_state::SavedState;
 use super::instance::Instance;
 use super::logger::{c_string, emit_to, Logger};
@@ -166,7 +167,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
     instanceName: fmi2String,
     fmuType: sys::fmi2Type,
     fmuGUID: fmi2String,
-    _fmuResourceLocation: fmi2String,
+    fmuResourceLocation: fmi2String,
     functions: *const sys::fmi2CallbackFunctions,
     _visible: fmi2Boolean,
     loggingOn: fmi2Boolean,
@@ -199,7 +200,10 @@ pub unsafe extern "C" fn fmi2Instantiate(
         }
         let logger =
             Logger::new(functions.logger, functions.componentEnvironment, c_string(&name), loggingOn != 0);
-        Box::into_raw(Box::new(Instance::new(logger))) as fmi2Component
+        // A location that is not a local file URI only means that a relative
+        // moduleParameterFile is looked up in the working directory alone.
+        let resources = text(fmuResourceLocation).and_then(|uri| file_uri_to_path(&uri, Os::HERE).ok());
+        Box::into_raw(Box::new(Instance::new(logger, resources))) as fmi2Component
     }));
     made.unwrap_or(std::ptr::null_mut())
 }

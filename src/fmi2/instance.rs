@@ -5,11 +5,13 @@
 //! having changed nothing.
 
 use std::ffi::{c_char, CString};
+use std::path::PathBuf;
 
 use aem_model::parameter_file::ParameterFile;
 use aem_model::{shown, Parameters, Plant, PlantConfig, PlantSettings};
 use crate::model_description::{BooleanVariable, Causality, IntegerVariable, RealVariable, StringVariable};
 
+use super::file_location::{locate, Os};
 use super::fmu_state::SavedState;
 use super::logger::{Logger, LOG_EVENTS};
 use super::state_machine::FmiState;
@@ -48,6 +50,9 @@ pub struct Instance {
     stop_time: Option<f64>,
     /// `moduleParameterFile`: a parameter file of aem-identify, or empty.
     module_parameter_file: String,
+    /// The FMU's resources folder, from fmuResourceLocation if that is a local file URI
+    /// (where a relative `moduleParameterFile` is looked up first).
+    resources: Option<PathBuf>,
     /// The per-module parameter sets read from it at initialisation (kept with the state, so
     /// restoring never reads the file again).
     module_sets: Option<Vec<Parameters>>,
@@ -58,8 +63,9 @@ pub struct Instance {
 }
 
 impl Instance {
-    /// A freshly instantiated FMU with the model description's start values.
-    pub fn new(logger: Logger) -> Self {
+    /// A freshly instantiated FMU with the model description's start values; `resources` is
+    /// the FMU's resources folder, if the master named one.
+    pub fn new(logger: Logger, resources: Option<PathBuf>) -> Self {
         let (params, settings, inputs) = start_values();
         Instance {
             magic: INSTANCE_MAGIC,
@@ -73,6 +79,7 @@ impl Instance {
             time: 0.0,
             stop_time: None,
             module_parameter_file: String::new(),
+            resources,
             module_sets: None,
             plant: None,
             returned_strings: Vec::new(),
@@ -119,11 +126,18 @@ impl Instance {
 
     /// The parameter sets of `moduleParameterFile` over the current parameters, if one is set.
     fn read_module_sets(&self) -> Result<Option<Vec<Parameters>>, String> {
-        let path = self.module_parameter_file.strip_prefix("file://").unwrap_or(&self.module_parameter_file);
-        if path.is_empty() {
+        let value = self.module_parameter_file.as_str();
+        if value.is_empty() {
             return Ok(None);
         }
-        let file = ParameterFile::load(std::path::Path::new(path)).map_err(|e| format!("moduleParameterFile: {e}"))?;
+        let path = locate(value, self.resources.as_deref(), Os::HERE).map_err(|e| format!("moduleParameterFile: {e}"))?;
+        let file = ParameterFile::load(&path).map_err(|e| match &self.resources {
+            Some(resources) if path.is_relative() => {
+                format!("moduleParameterFile: {e} (looked for in the resources folder {} and in the working directory)", resources.display())
+            }
+            _ => format!("moduleParameterFile: {e}"),
+        })?;
+        let path = path.display();
         let sets = file
             .modules
             .iter()
@@ -188,7 +202,7 @@ impl Instance {
         let mut logger = std::mem::replace(&mut self.logger, Logger::new(None, std::ptr::null_mut(), Default::default(), false));
         // As if fmi2Instantiate had been called again: debug logging as it was requested then.
         logger.restore_instantiation_logging();
-        *self = Instance::new(logger);
+        *self = Instance::new(logger, self.resources.take());
         self.logger.info(LOG_EVENTS, "reset to the start values");
         Ok(Status::Ok)
     }

@@ -5,9 +5,11 @@
 //! - `instance`: FMI semantics on top of [`aem_model::Module`], in safe Rust.
 //! - `variables`: model description variables ↔ model fields (exhaustive matches).
 //! - `fmu_state`: saved and serialised FMU states.
+//! - `file_location`: `file:` URIs and paths of the master (Windows drive letters, UNC).
 //! - `logger`, `status`: the importer's logger and fmi2Status.
 
 pub mod exports;
+pub mod file_location;
 pub mod fmu_state;
 pub mod instance;
 pub mod logger;

@@ -249,6 +249,39 @@ def test_module_parameter_file_gives_modules_their_own_sets(driver, tmp_path):
     d.fmu.freeFMUstate(state)
 
 
+def test_a_relative_module_parameter_file_is_found_in_the_fmus_resources(fmu_path, model_description, tmp_path):
+    """fmpy passes fmuResourceLocation as a percent-encoded file URI ("fmu%20dir%C3%BC"):
+    the FMU decodes it and finds a relative moduleParameterFile in its resources folder."""
+    from fmpy import extract
+    from conftest import Driver
+
+    unzipdir = tmp_path / "fmu dirü"
+    extract(str(fmu_path), str(unzipdir))
+    (unzipdir / "resources").mkdir(exist_ok=True)
+    parameter_file(unzipdir / "resources" / "modules.json", [0.50, 0.56])
+    d = Driver(str(unzipdir), model_description, logging_on=True)
+    try:
+        d.fmu.setupExperiment(startTime=0.0)
+        d.fmu.setInteger([d.vr["nModules"]], [2])
+        d.fmu.setString([d.vr["moduleParameterFile"]], ["modules.json"])
+        d.set(setpoint=80.0)
+        d.fmu.enterInitializationMode()
+        d.fmu.exitInitializationMode()
+        assert d.get("current") == pytest.approx((0.50 + 0.56) * 80 / 2, rel=1e-12)
+    finally:
+        d.free()
+
+
+def test_a_relative_module_parameter_file_that_is_nowhere_says_where_it_was_looked_for(driver, unzipdir):
+    d = driver(logging_on=True)
+    d.fmu.setupExperiment(startTime=0.0)
+    d.fmu.setString([d.vr["moduleParameterFile"]], ["no-such-modules.json"])
+    d.fmu.enterInitializationMode()
+    with pytest.raises(Exception):
+        d.fmu.exitInitializationMode()
+    assert any("no-such-modules.json" in m and "resources folder" in m for _, _, m in d.messages), d.messages
+
+
 @pytest.mark.parametrize("content,words", [
     (None, "moduleParameterFile"),  # missing file
     ('{"generator": "x", "modules": [{"module": "A", "parameters": {"gain": {"value": 0.5, "unit": "A", "source": "identified"}}}]}', "unit"),
