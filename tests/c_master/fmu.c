@@ -1,9 +1,19 @@
-/* See fmu.h. POSIX: dlopen, realpath (which glibc declares for X/Open). */
+/* See fmu.h. The platform's loader: LoadLibrary/GetProcAddress on Windows (built with
+ * mingw-w64), dlopen/dlsym elsewhere (POSIX; realpath, which glibc declares for X/Open). */
+#ifdef _WIN32
+#define WIN32_LEAN_AND_MEAN
+#include <windows.h>
+#define FMI2_PLATFORM "win64"
+#define LIBRARY_SUFFIX ".dll"
+#else
 #define _XOPEN_SOURCE 700
+#include <dlfcn.h>
+#define FMI2_PLATFORM "linux64"
+#define LIBRARY_SUFFIX ".so"
+#endif
 
 #include "fmu.h"
 
-#include <dlfcn.h>
 #include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -90,6 +100,75 @@ static char *join(const char *a, const char *b, const char *c) {
     return s;
 }
 
+/* The absolute path of `dir` with '/' as separator ("C:/x/y" on Windows); NULL on error. */
+static char *absolute_path(const char *dir) {
+#ifdef _WIN32
+    char *path = _fullpath(NULL, dir, 0);
+    for (char *p = path; p && *p; p++)
+        if (*p == '\\') *p = '/';
+#else
+    char *path = realpath(dir, NULL);
+#endif
+    if (!path) perror(dir);
+    return path;
+}
+
+/* The file URI of an absolute path (RFC 8089): file:///home/x or file:///C:/x, every byte
+ * outside RFC 3986's unreserved characters, '/' and ':' percent-encoded ("a b" -> "a%20b"). */
+char *fmu_file_uri(const char *absolute) {
+    const char *prefix = absolute[0] == '/' ? "file://" : "file:///";
+    char *uri = malloc(strlen(prefix) + 3 * strlen(absolute) + 1);
+    if (!uri) return NULL;
+    char *out = uri + sprintf(uri, "%s", prefix);
+    for (const unsigned char *p = (const unsigned char *)absolute; *p; p++) {
+        if ((*p >= 'A' && *p <= 'Z') || (*p >= 'a' && *p <= 'z') || (*p >= '0' && *p <= '9') ||
+            strchr("-._~/:", *p))
+            *out++ = (char)*p;
+        else
+            out += sprintf(out, "%%%02X", *p);
+    }
+    *out = '\0';
+    return uri;
+}
+
+/* The platform's loader, behind three calls. */
+static void *library_open(const char *path) {
+#ifdef _WIN32
+    /* The DLL's own folder is searched for the libraries it imports (FMI 2.0, section 2.3). */
+    HMODULE library = LoadLibraryExA(path, NULL, LOAD_WITH_ALTERED_SEARCH_PATH);
+    if (!library) fprintf(stderr, "LoadLibrary %s: error %lu\n", path, (unsigned long)GetLastError());
+    return (void *)library;
+#else
+    void *library = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    if (!library) fprintf(stderr, "dlopen: %s\n", dlerror());
+    return library;
+#endif
+}
+
+/* The address of `name`, as a data pointer: ISO C has no conversion from it to a function
+ * pointer, so the caller copies the bytes (POSIX and Windows guarantee the same size). */
+static void *library_symbol(void *library, const char *name) {
+#ifdef _WIN32
+    FARPROC symbol = GetProcAddress((HMODULE)library, name);
+    void *address;
+    memcpy(&address, &symbol, sizeof address);
+    return address;
+#else
+    return dlsym(library, name);
+#endif
+}
+
+static int library_close(void *library) {
+#ifdef _WIN32
+    if (FreeLibrary((HMODULE)library)) return 0;
+    fprintf(stderr, "FreeLibrary: error %lu\n", (unsigned long)GetLastError());
+#else
+    if (dlclose(library) == 0) return 0;
+    fprintf(stderr, "dlclose: %s\n", dlerror());
+#endif
+    return -1;
+}
+
 int fmu_load(Fmu *fmu, const char *dir) {
     memset(fmu, 0, sizeof *fmu);
     char *path = join(dir, "/", "modelDescription.xml");
@@ -113,35 +192,29 @@ int fmu_load(Fmu *fmu, const char *dir) {
     }
 
     /* FMI 2.0, section 2.1.5: fmuResourceLocation is a URI of the resources folder. */
-    char absolute[PATH_MAX];
-    if (!realpath(dir, absolute)) {
-        perror(dir);
-        return -1;
-    }
-    fmu->resource_uri = join("file://", absolute, "/resources");
+    char *absolute = absolute_path(dir);
+    if (!absolute) return -1;
+    char *resources = join(absolute, "/resources", "");
+    fmu->resource_uri = resources ? fmu_file_uri(resources) : NULL;
+    free(resources);
 
     /* FMI 2.0, section 2.3: binaries/<platform>/<modelIdentifier>.<so|dll|dylib>. */
-    char *binaries = join(absolute, "/binaries/linux64/", fmu->model_identifier);
-    char *library = binaries ? join(binaries, ".so", "") : NULL;
+    char *binaries = join(absolute, "/binaries/" FMI2_PLATFORM "/", fmu->model_identifier);
+    char *library = binaries ? join(binaries, LIBRARY_SUFFIX, "") : NULL;
     free(binaries);
+    free(absolute);
     if (!fmu->resource_uri || !library) {
         free(library);
         return -1;
     }
-    fmu->library = dlopen(library, RTLD_NOW | RTLD_LOCAL);
-    if (!fmu->library) {
-        fprintf(stderr, "dlopen: %s\n", dlerror());
-        free(library);
-        return -1;
-    }
+    fmu->library = library_open(library);
     free(library);
+    if (!fmu->library) return -1;
 
     int missing = 0;
-    /* ISO C has no conversion from void * to a function pointer; POSIX guarantees that the
-     * representations agree, so the address is copied bytewise. */
 #define FMI2_RESOLVE(name)                                                                 \
     {                                                                                      \
-        void *symbol = dlsym(fmu->library, "fmi2" #name);                                  \
+        void *symbol = library_symbol(fmu->library, "fmi2" #name);                         \
         if (!symbol) {                                                                     \
             fprintf(stderr, "the library does not export fmi2" #name "\n");                \
             missing++;                                                                     \
@@ -155,10 +228,7 @@ int fmu_load(Fmu *fmu, const char *dir) {
 
 int fmu_unload(Fmu *fmu) {
     int rc = 0;
-    if (fmu->library && dlclose(fmu->library) != 0) {
-        fprintf(stderr, "dlclose: %s\n", dlerror());
-        rc = -1;
-    }
+    if (fmu->library && library_close(fmu->library) != 0) rc = -1;
     free(fmu->guid);
     free(fmu->model_identifier);
     free(fmu->resource_uri);

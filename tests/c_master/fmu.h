@@ -31,7 +31,7 @@
 
 /* One loaded FMU: `fmu.DoStep` is the FMU's fmi2DoStep, typed by the standard's header. */
 typedef struct {
-    void *library; /* dlopen handle */
+    void *library; /* dlopen handle, or the HMODULE on Windows */
     char *guid;
     char *model_identifier;
     char *resource_uri; /* file:// URI of <dir>/resources */
@@ -41,12 +41,16 @@ typedef struct {
 #undef FMI2_FIELD
 } Fmu;
 
-/* Reads <dir>/modelDescription.xml and loads <dir>/binaries/linux64/<modelIdentifier>.so,
- * resolving every function. Returns 0, or -1 after printing why to stderr. */
+/* Reads <dir>/modelDescription.xml and loads <dir>/binaries/linux64/<modelIdentifier>.so
+ * (binaries/win64/<modelIdentifier>.dll on Windows), resolving every function. Returns 0, or
+ * -1 after printing why to stderr. */
 int fmu_load(Fmu *fmu, const char *dir);
 
 /* Unloads the library and frees what fmu_load allocated. Returns 0, or -1 if dlclose fails. */
 int fmu_unload(Fmu *fmu);
+
+/* The file URI of an absolute path with '/' separators, percent-encoded: a fresh string. */
+char *fmu_file_uri(const char *absolute);
 
 /* The valueReference of the ScalarVariable called `name`; exits if there is none. */
 fmi2ValueReference fmu_value_reference(const Fmu *fmu, const char *name);

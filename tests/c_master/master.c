@@ -1,10 +1,14 @@
 /* A small FMI 2.0 co-simulation master in C11, the third independent importer of the FMU.
  *
  *   master --fmu-dir DIR --schedule CSV --step H --stop T --out CSV
+ *          [--modules N --parameter-file PATH-OR-URI] [--resource-uri URI]
  *       Runs a setpoint schedule (rows "time,setpoint": the setpoint holds from that time on;
  *       the first row's time is the start time) with fixed communication steps H up to T
  *       and writes time,current,voltage,power,h2Flow,energy,h2Produced after initialisation
  *       and after every step, each value with %.17g (it reads back to the same double).
+ *       --modules and --parameter-file make it a hub of N modules with the given
+ *       moduleParameterFile; --resource-uri replaces the fmuResourceLocation that the
+ *       master derives from DIR (to try the forms a master may pass).
  *
  *   master --fmu-dir DIR --cycles N [--inject leak|invalid-read]
  *       N instantiate/step/free cycles for a memory checker (see cycle()). --inject adds one
@@ -29,6 +33,8 @@ static LogSink sink;
 static fmi2ValueReference setpoint_vr, output_vrs[N_OUTPUTS];
 /* The hub's Integer settings nModules, dispatch, belowMinimum, and its String moduleParameterFile. */
 static fmi2ValueReference hub_vrs[3], file_vr;
+/* fmuResourceLocation: the file URI of DIR/resources, or --resource-uri. */
+static const char *resource_uri;
 
 static void die(const char *what) {
     fprintf(stderr, "master: %s\n", what);
@@ -81,7 +87,7 @@ static fmi2Component instantiate(const char *name, const char *guid) {
         .stepFinished = NULL,
         .componentEnvironment = &sink,
     };
-    return fmu.Instantiate(name, fmi2CoSimulation, guid, fmu.resource_uri, &callbacks, fmi2False,
+    return fmu.Instantiate(name, fmi2CoSimulation, guid, resource_uri, &callbacks, fmi2False,
                            fmi2False);
 }
 
@@ -147,7 +153,8 @@ static void write_row(FILE *out, double t, const double values[N_OUTPUTS]) {
     fputc('\n', out);
 }
 
-static void run_schedule(const char *schedule_path, double h, double stop, const char *out_path) {
+static void run_schedule(const char *schedule_path, double h, double stop, const char *out_path,
+                         fmi2Integer modules, const char *parameter_file) {
     Schedule s = read_schedule(schedule_path);
     const double start = s.time[0];
     if (!(h > 0) || !(stop > start)) die("need --step > 0 and --stop after the first schedule time");
@@ -161,6 +168,8 @@ static void run_schedule(const char *schedule_path, double h, double stop, const
     fmi2Component c = instantiate("c_master", fmu.guid);
     if (!c) die("fmi2Instantiate returned NULL");
     OK(fmu.SetupExperiment(c, fmi2False, 0.0, start, fmi2True, stop));
+    if (modules > 0) OK(fmu.SetInteger(c, &hub_vrs[0], 1, &modules));
+    if (parameter_file) OK(fmu.SetString(c, &file_vr, 1, &parameter_file));
     set_setpoint(c, setpoint_at(&s, start));
     OK(fmu.EnterInitializationMode(c));
     OK_OR_WARNING(fmu.ExitInitializationMode(c));
@@ -304,11 +313,14 @@ int main(int argc, char **argv) {
     const char *schedule = option(argc, argv, "--schedule");
     if (!dir || (!cycles && !schedule) || argc % 2 != 1) {
         fprintf(stderr, "usage: master --fmu-dir DIR --schedule CSV --step H --stop T --out CSV\n"
+                        "              [--modules N --parameter-file PATH-OR-URI] [--resource-uri URI]\n"
                         "       master --fmu-dir DIR --cycles N [--inject leak|invalid-read]\n");
         return 2;
     }
     if (fmu_load(&fmu, dir) != 0) return 1;
     lookup_variables();
+    resource_uri = option(argc, argv, "--resource-uri");
+    if (!resource_uri) resource_uri = fmu.resource_uri;
 
     if (cycles) {
         const char *inject_name = option(argc, argv, "--inject");
@@ -326,8 +338,11 @@ int main(int argc, char **argv) {
     } else {
         const char *out = option(argc, argv, "--out");
         if (!out) die("--out is required with --schedule");
+        const char *modules = option(argc, argv, "--modules");
         run_schedule(schedule, number(option(argc, argv, "--step"), "--step"),
-                     number(option(argc, argv, "--stop"), "--stop"), out);
+                     number(option(argc, argv, "--stop"), "--stop"), out,
+                     modules ? (fmi2Integer)number(modules, "--modules") : 0,
+                     option(argc, argv, "--parameter-file"));
     }
     return fmu_unload(&fmu) == 0 ? 0 : 1;
 }
