@@ -13,50 +13,43 @@ names, wrong units and non-finite values are refused before anything is built.
 
 Layout of the FMU (FMI 2.0, section 2.3):
     modelDescription.xml
-    binaries/<platform>/AemElectrolyser.<so|dylib|dll>
+    binaries/linux64/AemElectrolyser.so    glibc >= 2.17 (cargo zigbuild)
+    binaries/win64/AemElectrolyser.dll     Windows 10 or later (mingw-w64, std built from source)
     documentation/index.html
+Both binaries are built on this Linux x86-64 machine (packaging/platforms.py says how);
+--platforms picks some of them. The time each build takes is printed.
 The archive is deterministic: fixed timestamps and sorted entries, so the same sources give
 the same bytes. Standard library only.
 """
 import argparse
 import json
 import math
-import os
+import platform as host
 import re
 import uuid
 import xml.etree.ElementTree as ET
-import platform
-import subprocess
 import sys
 import zipfile
 from pathlib import Path
 
+from platforms import PLATFORMS, build, release_dir
+
 ROOT = Path(__file__).resolve().parent.parent
 MODEL_IDENTIFIER = "AemElectrolyser"
+CRATE = "aem-electrolyser-fmu"
 CRATE_LIB = "aem_electrolyser"
 FIXED_DATE = (2026, 1, 1, 0, 0, 0)
 
 
-def platform_dir():
-    """FMI 2.0 platform folder and the library's file names for this machine."""
-    bits = "64" if sys.maxsize > 2**32 else "32"
-    system = platform.system()
-    if system == "Linux":
-        return f"linux{bits}", f"lib{CRATE_LIB}.so", f"{MODEL_IDENTIFIER}.so"
-    if system == "Darwin":
-        return f"darwin{bits}", f"lib{CRATE_LIB}.dylib", f"{MODEL_IDENTIFIER}.dylib"
-    if system == "Windows":
-        return f"win{bits}", f"{CRATE_LIB}.dll", f"{MODEL_IDENTIFIER}.dll"
-    sys.exit(f"package.py: unsupported platform {system}")
-
-
-def build_release(model_description=None):
-    """Release build of the library from the repository's model description, or `model_description`."""
-    env = dict(os.environ)
-    env.pop("AEM_MODEL_DESCRIPTION", None)
-    if model_description is not None:
-        env["AEM_MODEL_DESCRIPTION"] = str(model_description)
-    subprocess.run(["cargo", "build", "--release", "--lib", "--package", "aem-electrolyser-fmu", "--locked"], cwd=ROOT, check=True, env=env)
+def build_release(platforms, model_description=None):
+    """Release builds of the FMU's library for `platforms`, from the repository's model
+    description or from `model_description`."""
+    if host.system() != "Linux" or host.machine() != "x86_64":
+        sys.exit(f"package.py: the binaries are built on Linux x86-64 (this is {host.system()} {host.machine()})")
+    # Always set, so that a build from an edited copy is never reused for the repository's.
+    env = {"AEM_MODEL_DESCRIPTION": str(model_description) if model_description is not None else ""}
+    for name in platforms:
+        build(PLATFORMS[name], ["--lib", "--package", CRATE, "--locked"], env)
 
 
 class ParameterFileError(Exception):
@@ -130,20 +123,20 @@ def apply_parameters(xml_text: str, parameters: dict, origin: str):
     return text, values, new_guid
 
 
-def entries(model_description: bytes):
+def entries(model_description: bytes, platforms):
     """(archive name, bytes) of every file in the FMU."""
-    plat, built, shipped = platform_dir()
-    target_dir = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
-    library = target_dir / "release" / built
-    if not library.is_file():
-        sys.exit(f"package.py: {library} not found; build it first (cargo build --release --lib)")
     guid = ET.fromstring(model_description).get("guid")
-    binary = library.read_bytes()
-    if guid.encode() not in binary:
-        sys.exit(f"package.py: {library} was not built from this model description (GUID {guid} not in it); "
-                 "run without --no-build")
     yield "modelDescription.xml", model_description
-    yield f"binaries/{plat}/{shipped}", binary
+    for name in platforms:
+        platform = PLATFORMS[name]
+        library = release_dir(platform) / platform.library(CRATE_LIB)
+        if not library.is_file():
+            sys.exit(f"package.py: {library} not found; run without --no-build")
+        binary = library.read_bytes()
+        if guid.encode() not in binary:
+            sys.exit(f"package.py: {library} was not built from this model description (GUID {guid} not in it); "
+                     "run without --no-build")
+        yield f"binaries/{name}/{MODEL_IDENTIFIER}{platform.library_suffix}", binary
     docs = ROOT / "documentation"
     for path in sorted(docs.rglob("*")):
         if path.is_file():
@@ -165,16 +158,22 @@ def write_fmu(out: Path, files):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, default=ROOT / "target" / "fmu" / f"{MODEL_IDENTIFIER}.fmu")
-    parser.add_argument("--no-build", action="store_true", help="use the library already in target/release")
+    parser.add_argument("--no-build", action="store_true", help="use the libraries already built")
+    parser.add_argument("--platforms", default=",".join(PLATFORMS),
+                        help=f"comma-separated FMI platforms to build and ship (default: {','.join(PLATFORMS)})")
     parser.add_argument("--parameters", type=Path, help="parameter file of aem-identify: its values become the start values")
     parser.add_argument("--module", help="module of the parameter file (when it holds several)")
     args = parser.parse_args(argv)
+    platforms = [p.strip() for p in args.platforms.split(",") if p.strip()]
+    unknown = [p for p in platforms if p not in PLATFORMS]
+    if unknown or not platforms:
+        parser.error(f"--platforms: {', '.join(unknown) or 'none given'}; choose from {', '.join(PLATFORMS)}")
     xml_path = ROOT / "modelDescription.xml"
     if args.parameters is None:
         if args.module is not None:
             parser.error("--module needs --parameters")
         if not args.no_build:
-            build_release()
+            build_release(platforms)
         model_description = xml_path.read_bytes()
     else:
         try:
@@ -187,10 +186,10 @@ def main(argv=None):
         edited.parent.mkdir(parents=True, exist_ok=True)
         edited.write_text(text, encoding="utf-8")
         if not args.no_build:
-            build_release(edited.resolve())
+            build_release(platforms, edited.resolve())
         model_description = text.encode("utf-8")
         print(f"start values from {args.parameters}: " + ", ".join(f"{k}={v!r}" for k, v in values.items()) + f"; GUID {guid}")
-    write_fmu(args.out, list(entries(model_description)))
+    write_fmu(args.out, list(entries(model_description, platforms)))
     print(f"wrote {args.out.relative_to(ROOT) if args.out.is_relative_to(ROOT) else args.out}")
 
 

@@ -1,0 +1,112 @@
+"""How this Linux x86-64 machine builds the project's binaries for each FMI 2.0 platform.
+
+- linux64: `cargo zigbuild` (cargo-zigbuild with zig from the ziglang wheel, both in .venv)
+  links against glibc 2.17, so the library loads on RHEL/CentOS 7, Ubuntu 18.04 and newer;
+- win64: Debian's rustc-web/cargo-web build the standard library from source for
+  x86_64-pc-windows-gnu (`-Zbuild-std`; rustup here has no Windows std), linked by mingw-w64;
+  the DLL imports only system DLLs (Windows 10 or later).
+
+`build(platform, cargo_args)` runs the build and returns the release directory that holds its
+outputs. Standard library only; scripts/setup.sh installs the toolchains.
+"""
+import os
+import shutil
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+TARGET = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
+
+
+@dataclass(frozen=True)
+class Platform:
+    """One FMI platform folder and how its binaries are named and built."""
+
+    name: str  # FMI 2.0 platform folder
+    triple: str  # Rust target triple
+    library_prefix: str  # cargo's cdylib name: <prefix><crate><suffix>
+    library_suffix: str
+    exe_suffix: str
+
+    def library(self, crate):
+        return f"{self.library_prefix}{crate}{self.library_suffix}"
+
+
+LINUX64 = Platform("linux64", "x86_64-unknown-linux-gnu", "lib", ".so", "")
+WIN64 = Platform("win64", "x86_64-pc-windows-gnu", "", ".dll", ".exe")
+PLATFORMS = {p.name: p for p in (LINUX64, WIN64)}
+
+#: The oldest glibc the linux64 binary links against (manylinux2014).
+GLIBC = "2.17"
+#: Debian's rustc-web and cargo-web (a newer Rust than rustup's, with the std sources).
+DEBIAN_RUSTC, DEBIAN_CARGO = "/usr/bin/rustc", "/usr/bin/cargo"
+
+
+def _require(tool, hint):
+    path = shutil.which(tool)
+    if path is None:
+        sys.exit(f"platforms.py: {tool} not found; {hint} (scripts/setup.sh installs it)")
+    return path
+
+
+def _gcc_include(gcc):
+    """A gcc's own include folder (stddef.h, mm_malloc.h, ...), which bindgen's clang needs to
+    parse the FMI headers when the build points it at another target's sysroot."""
+    return subprocess.run([gcc, "-print-file-name=include"], check=True, capture_output=True, text=True).stdout.strip()
+
+
+def release_dir(platform):
+    """Where `build(platform, ...)` leaves its release outputs."""
+    if platform is LINUX64:
+        return TARGET / f"{LINUX64.triple}" / "release"
+    return TARGET / platform.name / platform.triple / "release"
+
+
+def command(platform, cargo_args):
+    """(argv, environment) of the build of `cargo_args` (e.g. --lib -p x) for `platform`."""
+    env = dict(os.environ)
+    # cargo-zigbuild, and zig via `python -m ziglang`, live beside this interpreter (.venv/bin).
+    env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
+    if platform is LINUX64:
+        if shutil.which("cargo-zigbuild", path=env["PATH"]) is None:
+            sys.exit("platforms.py: cargo-zigbuild not found; pip install cargo-zigbuild ziglang (scripts/setup.sh does)")
+        # bindgen parses the FMI headers for their types only: this machine's gcc and libc
+        # headers give the same x86-64 Linux types as glibc 2.17's. (cargo-zigbuild sets the
+        # dashed form of the variable, which bindgen reads first, so it is replaced here.)
+        gcc = _gcc_include(_require("gcc", "install gcc"))
+        env[f"BINDGEN_EXTRA_CLANG_ARGS_{LINUX64.triple}"] = f"-I{gcc} -I/usr/include/x86_64-linux-gnu -I/usr/include"
+        argv = ["cargo", "zigbuild", "--release", *cargo_args, "--target", f"{LINUX64.triple}.{GLIBC}"]
+        return argv, env
+    if platform is WIN64:
+        for tool in (DEBIAN_RUSTC, DEBIAN_CARGO):
+            if not Path(tool).is_file():
+                sys.exit(f"platforms.py: {tool} not found; install Debian's rustc-web, cargo-web and rust-web-src")
+        mingw_gcc = _require("x86_64-w64-mingw32-gcc", "install Debian's mingw-w64")
+        env.update({
+            # -Zbuild-std is unstable: Debian's stable rustc allows it with RUSTC_BOOTSTRAP.
+            "RUSTC_BOOTSTRAP": "1",
+            "RUSTC": DEBIAN_RUSTC,
+            "CARGO_TARGET_X86_64_PC_WINDOWS_GNU_LINKER": mingw_gcc,
+            "BINDGEN_EXTRA_CLANG_ARGS_x86_64_pc_windows_gnu": f"-I{_gcc_include(mingw_gcc)}",
+            # The std built from source carries its DWARF symbols: 1.9 MB unstripped.
+            "CARGO_PROFILE_RELEASE_STRIP": "symbols",
+        })
+        # Its own target directory: another compiler than rustup's, whose outputs must not mix.
+        argv = [DEBIAN_CARGO, "build", "--release", *cargo_args, "-Zbuild-std=std,panic_unwind",
+                "--target", WIN64.triple, "--target-dir", str(TARGET / WIN64.name)]
+        return argv, env
+    raise ValueError(platform)
+
+
+def build(platform, cargo_args, extra_env=None):
+    """Builds `cargo_args` for `platform`; prints and returns (release directory, seconds)."""
+    argv, env = command(platform, cargo_args)
+    env.update(extra_env or {})
+    started = time.monotonic()
+    subprocess.run(argv, cwd=ROOT, check=True, env=env)
+    seconds = time.monotonic() - started
+    print(f"built {platform.name} ({' '.join(cargo_args)}) in {seconds:.1f} s")
+    return release_dir(platform), seconds
