@@ -7,8 +7,15 @@
   the DLL imports only system DLLs (Windows 10 or later).
 
 `build(platform, cargo_args)` runs the build and returns the release directory that holds its
-outputs. Standard library only; scripts/setup.sh installs the toolchains.
+outputs (packaging/package.py builds the FMU's library with it). As a command it builds the
+identification tool for users of each platform:
+
+    python packaging/platforms.py aem-identify [--platforms win64]
+        -> target/dist/<platform>/aem-identify[.exe]
+
+Standard library only; scripts/setup.sh installs the toolchains.
 """
+import argparse
 import os
 import shutil
 import subprocess
@@ -110,3 +117,23 @@ def build(platform, cargo_args, extra_env=None):
     seconds = time.monotonic() - started
     print(f"built {platform.name} ({' '.join(cargo_args)}) in {seconds:.1f} s")
     return release_dir(platform), seconds
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description="Build a command of the workspace for each platform.")
+    parser.add_argument("tool", choices=["aem-identify"], help="the command to build")
+    parser.add_argument("--platforms", default=",".join(PLATFORMS), help="comma-separated FMI platforms")
+    args = parser.parse_args(argv)
+    for name in (p.strip() for p in args.platforms.split(",") if p.strip()):
+        if name not in PLATFORMS:
+            parser.error(f"unknown platform {name}; choose from {', '.join(PLATFORMS)}")
+        platform = PLATFORMS[name]
+        release, _ = build(platform, ["--bin", args.tool, "--package", args.tool, "--locked"])
+        dist = TARGET / "dist" / name
+        dist.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(release / f"{args.tool}{platform.exe_suffix}", dist / f"{args.tool}{platform.exe_suffix}")
+        print(f"wrote {dist / (args.tool + platform.exe_suffix)}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
-# Quick start, command 2: every test. Builds and packages the FMU, then runs the Rust tests
-# (model, C ABI in process, the packaged .fmu through the `fmi` crate, aem-identify on
-# synthetic campaigns) and the pytest suite (the packaged .fmu through fmpy, fmpy validate,
-# fmutool -check, packaging with identified parameters, the validation plot).
+# Quick start, command 2: every test. Builds and packages the FMU (linux64 and win64 binaries)
+# and aem-identify.exe, then runs the Rust tests (model, C ABI in process, the packaged .fmu
+# through the `fmi` crate, aem-identify on synthetic campaigns) and the pytest suite (the
+# packaged .fmu through fmpy, fmpy validate, fmutool -check, the win64 DLL and aem-identify.exe
+# under Wine, the glibc level, the FMI cross-check tree, packaging with identified parameters).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 cargo build --release --bins --locked
 .venv/bin/python packaging/package.py
+.venv/bin/python packaging/platforms.py aem-identify --platforms win64
 cargo test --locked
 .venv/bin/python -m pytest tests/python -q

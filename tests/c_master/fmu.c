@@ -258,6 +258,7 @@ void fmu_logger(fmi2ComponentEnvironment env, fmi2String instance_name, fmi2Stat
 
     LogSink *sink = env;
     if (sink && (unsigned)status <= fmi2Pending) sink->count[status]++;
+    if (sink && !sink->first[0] && text) snprintf(sink->first, sizeof sink->first, "%s", text);
     if (!sink || !sink->quiet) {
         fprintf(stderr, "[%s] %s (%s): %s\n", fmu_status_name(status),
                 instance_name ? instance_name : "(null)", category ? category : "(null)",

@@ -55,10 +55,12 @@ char *fmu_file_uri(const char *absolute);
 /* The valueReference of the ScalarVariable called `name`; exits if there is none. */
 fmi2ValueReference fmu_value_reference(const Fmu *fmu, const char *name);
 
-/* What the logger saw: messages counted per status, printed to stderr unless quiet. */
+/* What the logger saw: messages counted per status, printed to stderr unless quiet; the
+ * first message since `first` was last emptied is kept in it. */
 typedef struct {
     unsigned long count[fmi2Pending + 1];
     int quiet;
+    char first[1024];
 } LogSink;
 
 /* The fmi2CallbackLogger: formats the printf-style message with vsnprintf. Its

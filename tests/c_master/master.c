@@ -10,6 +10,9 @@
  *       moduleParameterFile; --resource-uri replaces the fmuResourceLocation that the
  *       master derives from DIR (to try the forms a master may pass).
  *
+ *   master --fmu-dir DIR --bad-calls table
+ *       Prints the bad-input table of ROBUSTNESS.md as this library answers it (bad_calls.c).
+ *
  *   master --fmu-dir DIR --cycles N [--inject leak|invalid-read]
  *       N instantiate/step/free cycles for a memory checker (see cycle()). --inject adds one
  *       deliberate leak or out-of-bounds read, so a test can show its checker catches them.
@@ -23,6 +26,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "bad_calls.h"
 #include "fmu.h"
 
 #define VARIABLE_NAMES(X) X(setpoint) X(current) X(voltage) X(power) X(h2Flow) X(energy) X(h2Produced)
@@ -311,9 +315,11 @@ int main(int argc, char **argv) {
     const char *dir = option(argc, argv, "--fmu-dir");
     const char *cycles = option(argc, argv, "--cycles");
     const char *schedule = option(argc, argv, "--schedule");
-    if (!dir || (!cycles && !schedule) || argc % 2 != 1) {
+    const char *bad_calls = option(argc, argv, "--bad-calls");
+    if (!dir || (!cycles && !schedule && !bad_calls) || argc % 2 != 1) {
         fprintf(stderr, "usage: master --fmu-dir DIR --schedule CSV --step H --stop T --out CSV\n"
                         "              [--modules N --parameter-file PATH-OR-URI] [--resource-uri URI]\n"
+                        "       master --fmu-dir DIR --bad-calls table\n"
                         "       master --fmu-dir DIR --cycles N [--inject leak|invalid-read]\n");
         return 2;
     }
@@ -322,7 +328,10 @@ int main(int argc, char **argv) {
     resource_uri = option(argc, argv, "--resource-uri");
     if (!resource_uri) resource_uri = fmu.resource_uri;
 
-    if (cycles) {
+    if (bad_calls) {
+        if (strcmp(bad_calls, "table") != 0) die("--bad-calls takes the word table");
+        if (run_bad_calls(&fmu, &sink) != 0) return 1;
+    } else if (cycles) {
         const char *inject_name = option(argc, argv, "--inject");
         enum Inject inject = INJECT_NONE;
         if (inject_name && strcmp(inject_name, "leak") == 0) inject = INJECT_LEAK;

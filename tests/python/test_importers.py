@@ -33,7 +33,7 @@ from conftest import PAPER, ROOT, Driver, modal_weights, unlimited_step_response
 SCHEDULE = ROOT / "tests" / "data" / "importer_schedule.csv"
 STEP, STOP = 0.5, 1500.0
 COLUMNS = ("time", "current", "voltage", "power", "h2Flow", "energy", "h2Produced")
-C_SOURCES = [ROOT / "tests" / "c_master" / name for name in ("master.c", "fmu.c")]
+C_SOURCES = [ROOT / "tests" / "c_master" / name for name in ("master.c", "fmu.c", "bad_calls.c")]
 C_FLAGS = ["-std=c11", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-g"]
 
 CYCLES = 10_000
