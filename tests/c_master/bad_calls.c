@@ -143,25 +143,19 @@ CASE(foreign_state) {
     for (int i = 0; i < 512; i++) foreign[i] = 9;
     return fmu->SetFMUstate(c, (fmi2FMUstate)foreign);
 }
-CASE(flipped_byte) {
+/* Deserialises a copy of the state whose byte `at` is `value`. */
+static fmi2Status deserialize_changed(fmi2Component c, const fmi2Byte *state, size_t size, size_t at, fmi2Byte value) {
     fmi2Byte *copy = malloc(size);
     if (!copy) exit(1);
     memcpy(copy, state, size);
-    copy[size / 2] ^= 1;
+    copy[at] = value;
     fmi2Status s = deserialize(c, copy, size);
     free(copy);
     return s;
 }
+CASE(flipped_byte) { return deserialize_changed(c, state, size, size / 2, (fmi2Byte)(state[size / 2] ^ 1)); }
 CASE(truncated) { return deserialize(c, state, size - 1); }
-CASE(other_version) {
-    fmi2Byte *copy = malloc(size);
-    if (!copy) exit(1);
-    memcpy(copy, state, size);
-    copy[8] = 2;
-    fmi2Status s = deserialize(c, copy, size);
-    free(copy);
-    return s;
-}
+CASE(other_version) { return deserialize_changed(c, state, size, 8, 2); }
 CASE(buffer_too_small) {
     UNUSED;
     fmi2FMUstate st = NULL;
