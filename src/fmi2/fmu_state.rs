@@ -16,7 +16,8 @@ use crate::model_description::GUID;
 use super::state_machine::FmiState;
 use super::variables::Inputs;
 
-const MAGIC: &[u8; 8] = b"AEMFMUST";
+/// The first bytes of every serialised state.
+pub const MAGIC: &[u8; 8] = b"AEMFMUST";
 /// Version of the serialised format; bump it whenever the payload changes.
 pub const FORMAT_VERSION: u32 = 5;
 const SAVED_MAGIC: u64 = 0x4145_4d5f_5354_4154; // "AEM_STAT"

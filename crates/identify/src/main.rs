@@ -9,10 +9,13 @@
 //! aem-identify synthesize data/ --days 10 --broken
 //! ```
 //! The report goes to stdout, errors and timings to stderr; a progress bar is drawn on
-//! stderr when it is a terminal.
+//! stderr when it is a terminal. Result files are written before the report is printed, and
+//! their paths are checked for writing before any input is read; a closed stdout (`| head`)
+//! ends the command quietly with exit status 0.
 
-use std::io::IsTerminal as _;
-use std::path::PathBuf;
+use std::fs::OpenOptions;
+use std::io::{IsTerminal as _, Write as _};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -183,8 +186,67 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("aem-identify: error: {e}");
+            say_err(&format!("aem-identify: error: {e}\n"));
             ExitCode::FAILURE
+        }
+    }
+}
+
+/// Prints `text` to stdout. A reader that has gone away (`aem-identify fit … | head`) ends the
+/// command quietly with status 0: every result file has been written by then.
+fn say(text: &str) -> Result<(), Error> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => std::process::exit(0),
+        Err(e) => Err(Error::Input(format!("cannot write to stdout: {e}"))),
+        Ok(()) => Ok(()),
+    }
+}
+
+/// Like [`say`], for stderr (timings).
+fn say_err(text: &str) {
+    let mut err = std::io::stderr().lock();
+    if let Err(e) = err.write_all(text.as_bytes()).and_then(|()| err.flush()) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+    }
+}
+
+/// A result file whose path was proven writable before the work began: the file is opened
+/// (created if missing, never truncated) at once; a file that this made and that never got
+/// its contents is removed again.
+struct OutputFile {
+    path: PathBuf,
+    created: bool,
+    written: bool,
+}
+
+impl OutputFile {
+    fn reserve(path: &Path) -> Result<OutputFile, Error> {
+        let existed = path.exists();
+        if path.is_dir() {
+            return Err(Error::Io { path: path.into(), message: "is a directory, not a file".into() });
+        }
+        OpenOptions::new()
+            .append(true)
+            .create(true)
+            .open(path)
+            .map_err(|e| Error::Io { path: path.into(), message: format!("cannot write here: {e}") })?;
+        Ok(OutputFile { path: path.into(), created: !existed, written: false })
+    }
+
+    fn write(&mut self, contents: &str) -> Result<(), Error> {
+        std::fs::write(&self.path, contents).map_err(|e| Error::Io { path: self.path.clone(), message: e.to_string() })?;
+        self.written = true;
+        Ok(())
+    }
+}
+
+impl Drop for OutputFile {
+    fn drop(&mut self) {
+        if self.created && !self.written {
+            let _ = std::fs::remove_file(&self.path);
         }
     }
 }
@@ -277,6 +339,7 @@ fn fit(args: FitArgs) -> Result<(), Error> {
         options.base.nominal_current = i;
     }
     options.base.validate().map_err(|e| Error::Input(format!("--nominal-current: {e}")))?;
+    let mut output = args.output.as_deref().map(OutputFile::reserve).transpose()?;
     for (name, v) in [
         ("--settle", args.input.settle),
         ("--pre-window", args.pre_window),
@@ -304,22 +367,26 @@ fn fit(args: FitArgs) -> Result<(), Error> {
     bar.finish_and_clear();
     let output_start = Instant::now();
     let file = id::parameter_file(&fits);
-    print!("{}", id::report::render(&fits, file.spread.as_ref()));
-    if let Some(path) = &args.output {
+    let report = id::report::render(&fits, file.spread.as_ref());
+    if let Some(output) = &mut output {
         let text = serde_json::to_string_pretty(&file).map_err(|e| Error::Input(format!("JSON: {e}")))?;
-        std::fs::write(path, text + "\n").map_err(|e| Error::Io { path: path.clone(), message: e.to_string() })?;
-        println!("wrote {}", path.display());
+        output.write(&(text + "\n"))?;
+    }
+    say(&report)?;
+    if let Some(output) = &output {
+        say(&format!("wrote {}\n", output.path.display()))?;
     }
     if args.timings {
         let rows: u64 = logs.iter().map(|l| l.rows_read).sum();
-        eprintln!("timing: read {:>8.1} ms  ({rows} rows)", read_time.as_secs_f64() * 1e3);
+        let mut text = format!("timing: read {:>8.1} ms  ({rows} rows)\n", read_time.as_secs_f64() * 1e3);
         for fit in &fits {
             for (stage, d) in &fit.timings {
-                eprintln!("timing: {:<20} {:>8.1} ms  (module {})", stage, d.as_secs_f64() * 1e3, fit.log.id);
+                text += &format!("timing: {:<20} {:>8.1} ms  (module {})\n", stage, d.as_secs_f64() * 1e3, fit.log.id);
             }
         }
-        eprintln!("timing: report and JSON {:>8.1} ms", output_start.elapsed().as_secs_f64() * 1e3);
-        eprintln!("timing: total {:>8.1} ms", start.elapsed().as_secs_f64() * 1e3);
+        text += &format!("timing: report and JSON {:>8.1} ms\n", output_start.elapsed().as_secs_f64() * 1e3);
+        text += &format!("timing: total {:>8.1} ms\n", start.elapsed().as_secs_f64() * 1e3);
+        say_err(&text);
     }
     Ok(())
 }
@@ -328,6 +395,7 @@ fn run_validate(args: ValidateArgs) -> Result<(), Error> {
     if args.days.is_empty() {
         return Err(Error::Input("give the held-out day's CSV file(s)".into()));
     }
+    let mut csv = args.csv.as_deref().map(OutputFile::reserve).transpose()?;
     let file = ParameterFile::load(&args.params)?;
     let entry = file.module(args.module.as_deref()).map_err(|e| Error::Input(format!("{}: {e}", args.params.display())))?;
     let params = entry.parameters().map_err(|e| Error::Input(format!("{}: {e}", args.params.display())))?;
@@ -342,21 +410,27 @@ fn run_validate(args: ValidateArgs) -> Result<(), Error> {
     };
     let options = ValidateOptions { running_current: args.input.running_current, settle: args.input.settle };
     let (v, trace) = validate::validate(&params, log, &options)?;
-    println!("Validation of module {} on {} ({} running segments)", entry.module, args.days.iter().map(|d| d.display().to_string()).collect::<Vec<_>>().join(", "), v.segments);
-    println!("  rows compared: {} of {} running ({} s after each start-up or gap)", v.compared_rows, v.running_rows, args.input.settle);
-    println!("  RMSE current   {:>10.4} A   (including start-ups {:.4} A)", v.current, v.current_with_startups);
-    let opt = |x: Option<f64>, unit: &str| x.map_or("not measured".to_string(), |x| format!("{x:>10.4} {unit}"));
-    println!("  RMSE voltage   {}", opt(v.voltage, "V"));
-    println!("  RMSE power     {}", opt(v.power, "W"));
-    println!("  RMSE hydrogen  {}", opt(v.h2_flow, "Nl/h"));
-    if let Some(path) = &args.csv {
-        validate::write_trace(path, &trace)?;
-        println!("wrote {} (plot: python scripts/plot_validation.py {} out.png)", path.display(), path.display());
+    if let Some(csv) = &mut csv {
+        validate::write_trace(&csv.path, &trace)?;
+        csv.written = true;
     }
-    Ok(())
+    let days = args.days.iter().map(|d| d.display().to_string()).collect::<Vec<_>>().join(", ");
+    let opt = |x: Option<f64>, unit: &str| x.map_or("not measured".to_string(), |x| format!("{x:>10.4} {unit}"));
+    let mut report = format!("Validation of module {} on {days} ({} running segments)\n", entry.module, v.segments);
+    report += &format!("  rows compared: {} of {} running ({} s after each start-up or gap)\n", v.compared_rows, v.running_rows, args.input.settle);
+    report += &format!("  RMSE current   {:>10.4} A   (including start-ups {:.4} A)\n", v.current, v.current_with_startups);
+    report += &format!("  RMSE voltage   {}\n", opt(v.voltage, "V"));
+    report += &format!("  RMSE power     {}\n", opt(v.power, "W"));
+    report += &format!("  RMSE hydrogen  {}\n", opt(v.h2_flow, "Nl/h"));
+    if let Some(csv) = &csv {
+        let path = csv.path.display();
+        report += &format!("wrote {path} (plot: python scripts/plot_validation.py {path} out.png)\n");
+    }
+    say(&report)
 }
 
 fn synthesize(args: SynthesizeArgs) -> Result<(), Error> {
+    std::fs::create_dir_all(&args.dir).map_err(|e| Error::Io { path: args.dir.clone(), message: format!("cannot write here: {e}") })?;
     let spec = CampaignSpec { seed: args.seed, running_hours: args.hours, ..CampaignSpec::default() };
     let days: Vec<synthetic::Day> = (args.skip..args.skip + args.days)
         .map(|d| synthetic::generate_day(&spec, d))
@@ -367,11 +441,10 @@ fn synthesize(args: SynthesizeArgs) -> Result<(), Error> {
         .map_err(|e| Error::Io { path: args.dir.clone(), message: e.to_string() })?;
     let rows: u64 = written.iter().map(|(_, i)| i.rows).sum();
     let p = spec.truth;
-    println!(
-        "wrote {} files, {rows} rows to {}; truth: gain {} A/%, tauZero {} s, tauPole1 {} s, tauPole2 {} s, rampUpLimit {} A/s, voltageIntercept {} V, ohmicResistance {} Ohm, h2Coefficient {} Nl/(h.A)",
+    say(&format!(
+        "wrote {} files, {rows} rows to {}; truth: gain {} A/%, tauZero {} s, tauPole1 {} s, tauPole2 {} s, rampUpLimit {} A/s, voltageIntercept {} V, ohmicResistance {} Ohm, h2Coefficient {} Nl/(h.A)\n",
         written.len(),
         args.dir.display(),
         p.gain, p.tau_zero, p.tau_pole1, p.tau_pole2, p.ramp_up_limit, p.voltage_intercept, p.ohmic_resistance, p.h2_coefficient
-    );
-    Ok(())
+    ))
 }

@@ -263,7 +263,13 @@ pub fn read_files(files: &[PathBuf], options: &ReadOptions, on_file: &(dyn Fn() 
 /// Reads one CSV file into one [`ModuleLog`] per module id found in it.
 pub fn read_file(path: &Path, options: &ReadOptions) -> Result<Vec<ModuleLog>> {
     let file = File::open(path).map_err(|e| io_error(path, e))?;
-    let mut reader = csv::ReaderBuilder::new().flexible(true).has_headers(false).from_reader(file);
+    read_csv(file, path, options)
+}
+
+/// Reads CSV text from `source` into one [`ModuleLog`] per module id found in it; `path`
+/// names it in messages and in the logs' blocks.
+pub fn read_csv(source: impl std::io::Read, path: &Path, options: &ReadOptions) -> Result<Vec<ModuleLog>> {
+    let mut reader = csv::ReaderBuilder::new().flexible(true).has_headers(false).from_reader(source);
     let mut record = csv::ByteRecord::new();
     let header_ok = reader.read_byte_record(&mut record).map_err(|e| csv_error(path, &e))?;
     if !header_ok {

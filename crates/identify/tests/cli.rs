@@ -1,9 +1,10 @@
 //! The `aem-identify` command line: fit a directory and write the parameter file, validate on
-//! a held-out day with a CSV trace, one file set per module, and errors (exit status 1, a
-//! message naming the file) instead of panics.
+//! a held-out day with a CSV trace, one file set per module, errors (exit status 1, a
+//! message naming the file) instead of panics, a closed stdout, and output paths checked
+//! before the work.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::{Command, Output, Stdio};
 
 use aem_model::parameter_file::ParameterFile;
 use aem_identify::validate::TRACE_HEADER;
@@ -116,4 +117,56 @@ fn bad_input_is_an_error_naming_the_file() {
     fails(&["validate", s(&params), s(&data)], "p.json:1: not a parameter file");
     // Usage errors are clap's (status 2).
     assert_eq!(tool(&["fit", "--cells", "many"]).status.code(), Some(2));
+}
+
+/// Runs the tool with its stdout a pipe whose reading end is closed at once (as `| head`
+/// does after its lines): the command's report meets a closed pipe.
+fn with_closed_stdout(args: &[&str]) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_aem-identify"))
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run aem-identify");
+    drop(child.stdout.take());
+    child.wait_with_output().expect("wait for aem-identify")
+}
+
+#[test]
+fn a_closed_stdout_ends_every_command_quietly_after_its_files_are_written() {
+    let dir = scratch("cli_closed_stdout");
+    let (train, held) = (dir.join("train"), dir.join("held"));
+    let (params, trace) = (dir.join("params.json"), dir.join("trace.csv"));
+    let commands: [Vec<&str>; 4] = [
+        vec!["synthesize", s(&train), "--days", "2"],
+        vec!["synthesize", s(&held), "--days", "1", "--skip", "2"],
+        vec!["fit", s(&train), "-o", s(&params), "--timings"],
+        vec!["validate", s(&params), s(&held), "--csv", s(&trace)],
+    ];
+    for args in &commands {
+        let out = with_closed_stdout(args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {err}");
+        assert!(!err.contains("panicked") && !err.contains("Broken pipe"), "{args:?}: {err}");
+    }
+    assert_eq!(std::fs::read_dir(&train).unwrap().count(), 2);
+    assert!(ParameterFile::load(&params).unwrap().module(None).is_ok(), "params.json written in full");
+    assert_eq!(std::fs::read_to_string(&trace).unwrap().lines().next(), Some(TRACE_HEADER));
+}
+
+#[test]
+fn an_output_path_that_cannot_be_written_is_refused_before_the_work() {
+    let dir = scratch("cli_output_paths");
+    let nowhere = dir.join("no-such-dir").join("params.json");
+    // The input does not exist either: the output path is checked first.
+    fails(&["fit", s(&dir.join("missing.csv")), "-o", s(&nowhere)], "no-such-dir");
+    fails(&["fit", s(&dir.join("missing.csv")), "-o", s(&dir)], "is a directory");
+    fails(&["validate", s(&dir.join("missing.json")), s(&dir), "--csv", s(&nowhere)], "no-such-dir");
+    // A file made to prove the path is removed again when the work fails.
+    let fresh = dir.join("fresh.json");
+    fails(&["fit", s(&dir.join("missing.csv")), "-o", s(&fresh)], "missing.csv");
+    assert!(!fresh.exists(), "an empty result file was left behind");
+    let blocked = dir.join("file");
+    std::fs::write(&blocked, "").unwrap();
+    fails(&["synthesize", s(&blocked.join("sub"))], "cannot write here");
 }

@@ -119,9 +119,14 @@ pub struct ParameterFile {
 impl ParameterFile {
     /// Reads a parameter file.
     pub fn load(path: &Path) -> Result<ParameterFile, ParameterFileError> {
-        let text = std::fs::read_to_string(path)
+        let text = std::fs::read(path)
             .map_err(|e| ParameterFileError { path: path.into(), line: None, message: e.to_string() })?;
-        serde_json::from_str(&text).map_err(|e| ParameterFileError {
+        ParameterFile::parse(&text, path)
+    }
+
+    /// Parses the bytes of a parameter file; `path` names it in the error.
+    pub fn parse(bytes: &[u8], path: &Path) -> Result<ParameterFile, ParameterFileError> {
+        serde_json::from_slice(bytes).map_err(|e| ParameterFileError {
             path: path.into(),
             line: Some(e.line() as u64),
             message: format!("not a parameter file: {e}"),
