@@ -3,7 +3,8 @@
 # and aem-identify.exe, then runs the Rust tests (model, C ABI in process, the packaged .fmu
 # through the `fmi` crate, aem-identify on synthetic campaigns) and the pytest suite (the
 # packaged .fmu through fmpy, fmpy validate, fmutool -check, the win64 DLL and aem-identify.exe
-# under Wine, the glibc level, the FMI cross-check tree, packaging with identified parameters).
+# under Wine, the glibc level, the FMI cross-check tree, packaging with identified parameters),
+# then fuzzes each byte-level input for 30 s (scripts/fuzz.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -12,3 +13,4 @@ cargo build --release --bins --locked
 .venv/bin/python packaging/platforms.py aem-identify --platforms win64
 cargo test --locked
 .venv/bin/python -m pytest tests/python -q
+bash scripts/fuzz.sh
