@@ -8,7 +8,7 @@
 #   and wine64 to test the Windows binaries here, from Debian's packages (about 300 MB to
 #   download, 1.9 GB installed, under a minute); cargo-zigbuild and
 #   ziglang (linux64 against glibc 2.17) come with requirements.txt;
-# - cargo-fuzz (scripts/fuzz.sh), from crates.io;
+# - cargo-fuzz (scripts/fuzz.sh), from crates.io; libtbb12 (Ecos, an importer in the tests);
 # - .venv with the Python tools of requirements.txt (fmpy, numpy, scipy, pytest, ...).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -37,6 +37,11 @@ if ! command -v x86_64-w64-mingw32-gcc >/dev/null || [ ! -x /usr/bin/rustc ] || 
    || [ ! -x /usr/lib/wine/wine64 ]; then
   echo "setup: installing mingw-w64, rustc-web, cargo-web, rust-web-src and wine64 (the win64 binaries and their tests)"
   apt_install gcc-mingw-w64-x86-64-win32 rustc-web cargo-web rust-web-src wine64
+fi
+
+if [ ! -e /usr/lib/x86_64-linux-gnu/libtbb.so.12 ]; then
+  echo "setup: installing libtbb12 (the Ecos co-simulation engine of the tests)"
+  apt_install libtbb12
 fi
 
 if ! cargo fuzz --version >/dev/null 2>&1; then
