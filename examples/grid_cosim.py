@@ -17,16 +17,21 @@ hub's power at the start of the interval (held until the next exchange). Initial
 power, its hubPower sets the hub VSC's P_setp before TOPS's load flow, so the system starts
 in equilibrium (no start transient). Two runs: steady 10 m/s wind, and the same with an IEC
 61400-1 extreme operating gust (examples/wind_farm.py) on every turbine at once. Frequency
-and voltage at B12 (a PLL at the bus) are plotted; <out>.csv and <out>.png are written.
+and voltage at B12 (a PLL at the bus) are plotted; <out>.csv and <out>.png are written before
+the summary is printed, and the FMU's messages go to stderr.
 """
 import argparse
+import contextlib
 import csv
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from hub_fmu import DEFAULT_FMU, HubFMU
 from wind_farm import N_TURBINES, Site, Turbine, extreme_operating_gust, power_curve
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from command_line import quiet_on_closed_stdout, writable  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 N_MODULES = 25_000
@@ -147,22 +152,23 @@ def plot(path, cases):
 
 def run(fmu=DEFAULT_FMU, duration=60.0, gust_start=10.0, exchange=0.1, out=None, hub_factory=HubFMU,
         verbose=True):
-    cases = {
-        "steady wind": run_case(fmu, duration, None, exchange, hub_factory=hub_factory),
-        "gust": run_case(fmu, duration, gust_start, exchange, hub_factory=hub_factory),
-    }
+    with contextlib.redirect_stdout(sys.stderr):  # the FMU's and TOPS's messages are no report
+        cases = {
+            "steady wind": run_case(fmu, duration, None, exchange, hub_factory=hub_factory),
+            "gust": run_case(fmu, duration, gust_start, exchange, hub_factory=hub_factory),
+        }
+    if out is not None:
+        out = Path(out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_csv(out.with_suffix(".csv"), cases)
+        plot(out.with_suffix(".png"), cases)
     if verbose:
         for name, o in cases.items():
             exch = o["vsc_wind"] - o["vsc_hub"]
             print(f"{name:>12}: hub {o['vsc_hub'][0] / 1e6:.2f} MW at t = 0, max |grid exchange| "
                   f"{np.abs(exch).max() / 1e6:6.2f} MW, max |frequency deviation| {1e3 * np.abs(o['df']).max():.3g} mHz, "
                   f"voltage {o['v'].min():.5f}…{o['v'].max():.5f} pu")
-    if out is not None:
-        out = Path(out)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        write_csv(out.with_suffix(".csv"), cases)
-        plot(out.with_suffix(".png"), cases)
-        if verbose:
+        if out is not None:
             print(f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
     return cases
 
@@ -175,8 +181,10 @@ def main():
     parser.add_argument("--exchange", type=float, default=0.1, help="FMU communication step [s]")
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "grid_cosim")
     args = parser.parse_args()
+    for suffix in (".csv", ".png"):
+        writable(args.out.with_suffix(suffix))
     run(args.fmu, args.duration, args.gust_start, args.exchange, args.out)
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

@@ -12,16 +12,21 @@ minus their start value. Prints, per step, the time to 90 % of the final change 
 current at t90 relative to the final value, the time to within 2 % of the change (t98: the
 slow creep of the tauZero/tauPole2 mode), the overshoot in % of the step and the current at
 the end. Writes <out>/step_responses.csv (current [A] of every run against time [s] since the
-step), <out>/step_responses_table.csv (the table) and <out>/step_responses.png.
+step), <out>/step_responses_table.csv (the table) and <out>/step_responses.png before it prints
+the table; the FMU's messages go to stderr.
 """
 import argparse
+import contextlib
 import csv
 import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from command_line import quiet_on_closed_stdout, writable  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 SIZES = [5, 10, 20, 30, 40]  # step sizes [% of nominal]
@@ -148,15 +153,17 @@ def main(argv=None):
     parser.add_argument("--dt", type=float, default=0.1, help="communication step [s]")
     parser.add_argument("--dpi", type=int, default=110, help="resolution of the PNG")
     args = parser.parse_args(argv)
+    for name in ("step_responses.csv", "step_responses_table.csv", "step_responses.png"):
+        writable(args.out / name)
     labeled = runs()
-    t, currents, gain = simulate_steps(args.fmu, [(u0, u1) for _, u0, u1 in labeled], args.duration, args.dt)
+    with contextlib.redirect_stdout(sys.stderr):  # the FMU's log is no report
+        t, currents, gain = simulate_steps(args.fmu, [(u0, u1) for _, u0, u1 in labeled], args.duration, args.dt)
     table = [[lab, u0, u1] + metrics(t, c, u0, u1, gain) for (lab, u0, u1), c in zip(labeled, currents)]
-    print_table(table)
-    args.out.mkdir(parents=True, exist_ok=True)
     write_csvs(args.out, t, labeled, currents, table)
     plot(args.out / "step_responses.png", t, labeled, currents, table, args.dpi)
+    print_table(table)
     print(f"wrote {args.out / 'step_responses.csv'}, {args.out / 'step_responses_table.csv'} and {args.out / 'step_responses.png'}")
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

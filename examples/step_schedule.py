@@ -3,16 +3,21 @@
 
     python examples/step_schedule.py [--fmu target/fmu/AemElectrolyser.fmu] [--out out/demo]
 
-Prints a short table, writes <out>.csv (every second) and <out>.png (current, voltage, power
-and hydrogen flow against time). Steps down follow the two-exponential response of G(s);
-steps up are held to the 0.22 A/s ramp limit until the response catches up.
+Writes <out>.csv (every second) and <out>.png (current, voltage, power and hydrogen flow
+against time), then prints a short table; fmpy's and the FMU's messages go to stderr. Steps
+down follow the two-exponential response of G(s); steps up are held to the 0.22 A/s ramp limit
+until the response catches up.
 """
 import argparse
+import contextlib
 import csv
+import sys
 from pathlib import Path
 
 import numpy as np
 from fmpy import simulate_fmu
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from command_line import quiet_on_closed_stdout, writable  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -34,10 +39,11 @@ def input_signal():
 
 
 def simulate(fmu):
-    return simulate_fmu(
-        str(fmu), start_time=0.0, stop_time=STOP_TIME, step_size=1.0, output_interval=1.0,
-        input=input_signal(), output=OUTPUTS,
-    )
+    with contextlib.redirect_stdout(sys.stderr):  # fmpy's warnings and the FMU's log are no report
+        return simulate_fmu(
+            str(fmu), start_time=0.0, stop_time=STOP_TIME, step_size=1.0, output_interval=1.0,
+            input=input_signal(), output=OUTPUTS,
+        )
 
 
 def write_csv(result, path):
@@ -82,8 +88,10 @@ def main():
     parser.add_argument("--fmu", type=Path, default=ROOT / "target" / "fmu" / "AemElectrolyser.fmu")
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "step_schedule")
     args = parser.parse_args()
+    csv_path, png_path = writable(args.out.with_suffix(".csv")), writable(args.out.with_suffix(".png"))
     result = simulate(args.fmu)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
+    write_csv(result, csv_path)
+    plot(result, png_path)
 
     print(f"{'t [s]':>7} {'setpoint [%]':>12} {'current [A]':>11} {'voltage [V]':>11} {'power [W]':>10} {'H2 [Nl/h]':>9}")
     times = sorted({t for t, _ in SCHEDULE} | {t + d for t, _ in SCHEDULE for d in (10, 60)} | {STOP_TIME})
@@ -94,11 +102,8 @@ def main():
         print(f"{r['time']:7.0f} {r['setpoint']:12.1f} {r['current']:11.3f} {r['voltage']:11.3f} {r['power']:10.1f} {r['h2Flow']:9.1f}")
     last = result[-1]
     print(f"energy {last['energy'] / 3.6e6:.4f} kWh, hydrogen {last['h2Produced']:.1f} Nl in {STOP_TIME:.0f} s")
-
-    write_csv(result, args.out.with_suffix(".csv"))
-    plot(result, args.out.with_suffix(".png"))
-    print(f"wrote {args.out.with_suffix('.csv')} and {args.out.with_suffix('.png')}")
+    print(f"wrote {csv_path} and {png_path}")
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

@@ -14,11 +14,12 @@
    the measured current, voltage and DC power (V*I) on the rows at least 600 s after start-up
    (the model does not cover start-ups); `aem-identify validate` is run beside as a cross-check.
 
-Prints the identified parameters against the true ones and the RMSEs; writes
-<out>/validation_day.csv (measured and simulated, every running row), <out>/validation_day.png
-and <out>/validation_parameters.csv.
+Writes <out>/validation_day.csv (measured and simulated, every running row),
+<out>/validation_day.png and <out>/validation_parameters.csv, then prints the identified
+parameters against the true ones and the RMSEs. The commands it runs are echoed on stderr.
 """
 import argparse
+import contextlib
 import csv
 import json
 import re
@@ -30,6 +31,8 @@ from pathlib import Path
 import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from command_line import quiet_on_closed_stdout, writable  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 SETTLE = 600.0  # rows this long after a start-up are compared [s]
@@ -39,8 +42,8 @@ PARAMETERS = ["gain", "tauZero", "tauPole1", "tauPole2", "rampUpLimit", "voltage
 
 
 def run(cmd, log=None):
-    """Runs a command, echoes it, returns its stdout; exits with its output on failure."""
-    print("$ " + " ".join(str(c) for c in cmd), flush=True)
+    """Runs a command, echoes it on stderr, returns its stdout; exits with its output on failure."""
+    print("$ " + " ".join(str(c) for c in cmd), file=sys.stderr, flush=True)
     p = subprocess.run([str(c) for c in cmd], cwd=ROOT, capture_output=True, text=True)
     if p.returncode != 0:
         sys.exit(f"failed ({p.returncode}): {p.stdout}\n{p.stderr}")
@@ -178,7 +181,9 @@ def main(argv=None):
     args = parser.parse_args(argv)
     out = args.out.resolve()
     work = out / "validation"
-    work.mkdir(parents=True, exist_ok=True)
+    for path in (out / "validation_day.csv", out / "validation_parameters.csv", out / "validation_day.png",
+                 work / "fit_report.txt"):
+        writable(path)
 
     truth, heldout = synthesize(args.tool, work, args.days, args.seed, args.hours)
     params = work / "params.json"
@@ -189,22 +194,24 @@ def main(argv=None):
 
     found = identified(params)
     table = []
-    print(f"\n{'parameter':<17} {'unit':<9} {'true':>10} {'identified':>12} {'std. error':>11} {'error':>8}")
     for name in PARAMETERS:
         (true, unit), (value, se) = truth[name], found[name]
         table.append([name, unit, true, value, se, 100.0 * (value / true - 1.0)])
-        print(f"{name:<17} {unit:<9} {true:10.5g} {value:12.6g} {se:11.2g} {table[-1][-1]:+7.3f}%")
-
-    rows = compare(fmu, load_day(heldout))
+    with contextlib.redirect_stdout(sys.stderr):  # the FMU's log is no report
+        rows = compare(fmu, load_day(heldout))
     rmses = {k: rmse(rows, k) for k in ("current", "voltage", "power")}
     tool_rmse = float(re.search(r"RMSE current\s+([0-9.]+) A", check).group(1))
+    write_outputs(out, rows, table)
+    plot(out / "validation_day.png", rows, rmses, args.dpi)
+
+    print(f"{'parameter':<17} {'unit':<9} {'true':>10} {'identified':>12} {'std. error':>11} {'error':>8}")
+    for name, unit, true, value, se, error in table:
+        print(f"{name:<17} {unit:<9} {true:10.5g} {value:12.6g} {se:11.2g} {error:+7.3f}%")
     print(f"\nheld-out day {heldout.name}: {int(rows['compared'].sum())} of {len(rows['time'])} running rows compared")
     print(f"RMSE current {rmses['current']:.4f} A (aem-identify validate: {tool_rmse:.4f} A), "
           f"voltage {rmses['voltage']:.4f} V, DC power {rmses['power']:.3f} W")
-    write_outputs(out, rows, table)
-    plot(out / "validation_day.png", rows, rmses, args.dpi)
     print(f"wrote {out / 'validation_day.csv'}, {out / 'validation_parameters.csv'} and {out / 'validation_day.png'}")
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

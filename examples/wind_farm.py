@@ -33,10 +33,13 @@ Model (simple and documented; every number below is a default that can be change
 """
 import argparse
 import csv
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from command_line import quiet_on_closed_stdout, writable  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -152,19 +155,19 @@ def main():
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--csv", type=Path, default=ROOT / "out" / "wind_farm.csv")
     args = parser.parse_args()
+    writable(args.csv)
     t, p, speeds = farm_power(args.hours * 3600.0, seed=args.seed)
-    rated = N_TURBINES * Turbine().rated_power
-    print(f"wind farm {rated / 1e6:.0f} MW, {t.size} s: mean {p.mean() / 1e6:.2f} MW "
-          f"(capacity factor {p.mean() / rated:.2f}), min {p.min() / 1e6:.2f} MW, max {p.max() / 1e6:.2f} MW, "
-          f"std {p.std() / 1e6:.2f} MW, largest 1 s change {np.abs(np.diff(p)).max() / 1e6:.2f} MW")
-    args.csv.parent.mkdir(parents=True, exist_ok=True)
     with open(args.csv, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["time [s]", "farm power [W]", "mean turbine wind [m/s]"])
         for row in zip(t, p, speeds.mean(axis=0)):
             w.writerow([f"{x:.10g}" for x in row])
+    rated = N_TURBINES * Turbine().rated_power
+    print(f"wind farm {rated / 1e6:.0f} MW, {t.size} s: mean {p.mean() / 1e6:.2f} MW "
+          f"(capacity factor {p.mean() / rated:.2f}), min {p.min() / 1e6:.2f} MW, max {p.max() / 1e6:.2f} MW, "
+          f"std {p.std() / 1e6:.2f} MW, largest 1 s change {np.abs(np.diff(p)).max() / 1e6:.2f} MW")
     print(f"wrote {args.csv}")
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

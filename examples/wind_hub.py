@@ -9,17 +9,21 @@ communication steps, the reference held over each step. Grid exchange = wind pow
 power (positive: export of wind power the hub did not absorb). Two dispatches side by side:
 equal (every module the same share; below the minimum they stay at 60 %, the paper's
 behaviour) and sequential (as few modules as possible, the others in standby). Prints the
-energy not absorbed, the hydrogen produced and the RMS tracking error of each; writes
-<out>.csv and <out>.png.
+energy not absorbed, the hydrogen produced and the RMS tracking error of each after it has
+written <out>.csv and <out>.png; the FMU's messages go to stderr.
 """
 import argparse
+import contextlib
 import csv
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from hub_fmu import DEFAULT_FMU, HubFMU
 from wind_farm import farm_power
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from command_line import quiet_on_closed_stdout, writable  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 N_MODULES = 25_000  # the paper's hub: 25 000 modules, about 60 MW
@@ -139,9 +143,15 @@ def run(fmu=DEFAULT_FMU, duration=3600.0, seed=1, out=None, hub_factory=HubFMU, 
     t, wind, _ = farm_power(duration + dt, dt, seed=seed)
     reference = wind[:-1]
     runs, summaries = {}, {}
-    for d in dispatches:
-        runs[d], rating = simulate(fmu, reference, dt, d, hub_factory=hub_factory)
-        summaries[d] = summarise(reference, dt, runs[d], N_MODULES, rating)
+    with contextlib.redirect_stdout(sys.stderr):  # the FMU's log is no report
+        for d in dispatches:
+            runs[d], rating = simulate(fmu, reference, dt, d, hub_factory=hub_factory)
+            summaries[d] = summarise(reference, dt, runs[d], N_MODULES, rating)
+    if out is not None:
+        out = Path(out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_csv(out.with_suffix(".csv"), t, wind, runs)
+        plot(out.with_suffix(".png"), t, wind, runs, N_MODULES, rating)
     if verbose:
         s0 = next(iter(summaries.values()))
         print(f"wind farm: {s0['wind'] / 3.6e9:.2f} MWh in {duration:.0f} s (mean {reference.mean() / 1e6:.2f} MW); "
@@ -151,12 +161,7 @@ def run(fmu=DEFAULT_FMU, duration=3600.0, seed=1, out=None, hub_factory=HubFMU, 
         for d, s in summaries.items():
             print(f"{d:>10} {s['hub'] / 3.6e9:9.3f} {s['exported'] / 3.6e9:18.3f} {s['imported'] / 3.6e9:14.3f} "
                   f"{s['h2_kg']:8.1f} {s['rms'] / 1e6:14.3f} {100 * s['rms'] / s['nominal']:7.2f} {s['starts']:6.0f}")
-    if out is not None:
-        out = Path(out)
-        out.parent.mkdir(parents=True, exist_ok=True)
-        write_csv(out.with_suffix(".csv"), t, wind, runs)
-        plot(out.with_suffix(".png"), t, wind, runs, N_MODULES, rating)
-        if verbose:
+        if out is not None:
             print(f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
     return t, wind, runs, summaries
 
@@ -169,8 +174,10 @@ def main():
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "wind_hub")
     args = parser.parse_args()
+    for suffix in (".csv", ".png"):
+        writable(args.out.with_suffix(suffix))
     run(args.fmu, args.duration if args.duration else args.hours * 3600.0, args.seed, args.out)
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

@@ -7,6 +7,7 @@
     fuzz/corpus/parameter_file/   parameter files as aem-identify writes them
     fuzz/corpus/identify_csv/     the first rows of synthetic logs (aem-identify synthesize
                                   --broken), with seconds, RFC 3339 times and a module column
+                                  (first byte 1: the reader is told that column `unit` holds it)
 
 Needs target/fmu/AemElectrolyser.fmu and target/release/aem-identify (scripts/test.sh builds both).
 """
@@ -87,10 +88,10 @@ def main():
             subprocess.run([IDENTIFY, "synthesize", tmp / name, "--days", "1", "--broken", *extra],
                            check=True, capture_output=True)
             lines = (tmp / name / "day01.csv").read_text().splitlines()
-            (CORPUS / "identify_csv" / f"{name}.csv").write_text("\n".join(lines[:80]) + "\n")
+            (CORPUS / "identify_csv" / f"{name}.csv").write_bytes(b"\x00" + ("\n".join(lines[:40]) + "\n").encode())
         lines = (tmp / "seconds" / "day01.csv").read_text().splitlines()
-        with_module = [lines[0] + ",unit"] + [f"{line},{'AB'[k % 2]}" for k, line in enumerate(lines[1:60])]
-        (CORPUS / "identify_csv" / "modules.csv").write_text("\n".join(with_module) + "\n")
+        with_module = [lines[0] + ",unit"] + [f"{line},{'AB'[k % 2]}" for k, line in enumerate(lines[1:30])]
+        (CORPUS / "identify_csv" / "modules.csv").write_bytes(b"\x01" + ("\n".join(with_module) + "\n").encode())
     for target in sorted(CORPUS.iterdir()):
         print(f"{target.relative_to(ROOT)}: {len(list(target.iterdir()))} seeds")
 

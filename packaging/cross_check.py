@@ -33,6 +33,8 @@ import sys
 import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from command_line import quiet_on_closed_stdout, writable_folder  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = "AemElectrolyser"
@@ -126,7 +128,7 @@ class ClosedForm:
 def write_model_folder(folder, fmu, reference):
     folder.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(fmu, folder / f"{MODEL}.fmu")
-    rows = [f'"time","setpoint"']
+    rows = ['"time","setpoint"']
     for k, (t, u) in enumerate(SCHEDULE):
         if k > 0:  # a step: the old value up to t, the new one from t (same time twice)
             rows.append(f"{t!r},{SCHEDULE[k - 1][1]!r}")
@@ -154,6 +156,7 @@ def main(argv=None):
     parser.add_argument("--fmu", type=Path, default=ROOT / "target" / "fmu" / f"{MODEL}.fmu")
     parser.add_argument("--out", type=Path, default=ROOT / "target" / "cross-check")
     args = parser.parse_args(argv)
+    writable_folder(args.out)
     if not args.fmu.is_file():
         sys.exit(f"cross_check.py: {args.fmu} not found (python packaging/package.py writes it)")
     with zipfile.ZipFile(args.fmu) as z:
@@ -165,11 +168,12 @@ def main(argv=None):
     n = round((STOP - START) / STEP)
     reference = [(START + k * STEP, *model.outputs(START + k * STEP)) for k in range(n + 1)]
     shutil.rmtree(args.out / "fmus", ignore_errors=True)
-    for platform in platforms:
-        folder = args.out / "fmus" / "2.0" / "cs" / platform / TOOL / crate_version() / MODEL
+    folders = [args.out / "fmus" / "2.0" / "cs" / platform / TOOL / crate_version() / MODEL for platform in platforms]
+    for folder in folders:
         write_model_folder(folder, args.fmu, reference)
+    for folder in folders:
         print(f"wrote {folder}")
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

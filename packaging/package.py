@@ -17,7 +17,8 @@ Layout of the FMU (FMI 2.0, section 2.3):
     binaries/win64/AemElectrolyser.dll     Windows 10 or later (mingw-w64, std built from source)
     documentation/index.html
 Both binaries are built on this Linux x86-64 machine (packaging/platforms.py says how);
---platforms picks some of them. The time each build takes is printed.
+--platforms picks some of them. The time each build takes is printed on stderr; the output
+path is checked for writing before anything is built.
 The archive is deterministic: fixed timestamps and sorted entries, so the same sources give
 the same bytes. Standard library only.
 """
@@ -33,6 +34,8 @@ import zipfile
 from pathlib import Path
 
 from platforms import PLATFORMS, build, release_dir
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from command_line import quiet_on_closed_stdout, writable  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 MODEL_IDENTIFIER = "AemElectrolyser"
@@ -168,6 +171,7 @@ def main(argv=None):
     unknown = [p for p in platforms if p not in PLATFORMS]
     if unknown or not platforms:
         parser.error(f"--platforms: {', '.join(unknown) or 'none given'}; choose from {', '.join(PLATFORMS)}")
+    writable(args.out)
     xml_path = ROOT / "modelDescription.xml"
     if args.parameters is None:
         if args.module is not None:
@@ -188,10 +192,11 @@ def main(argv=None):
         if not args.no_build:
             build_release(platforms, edited.resolve())
         model_description = text.encode("utf-8")
-        print(f"start values from {args.parameters}: " + ", ".join(f"{k}={v!r}" for k, v in values.items()) + f"; GUID {guid}")
     write_fmu(args.out, list(entries(model_description, platforms)))
+    if args.parameters is not None:
+        print(f"start values from {args.parameters}: " + ", ".join(f"{k}={v!r}" for k, v in values.items()) + f"; GUID {guid}")
     print(f"wrote {args.out.relative_to(ROOT) if args.out.is_relative_to(ROOT) else args.out}")
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

@@ -13,6 +13,8 @@ identification tool for users of each platform:
     python packaging/platforms.py aem-identify [--platforms win64]
         -> target/dist/<platform>/aem-identify[.exe]
 
+Build times go to stderr; the output paths are checked for writing before anything is built.
+
 Standard library only; scripts/setup.sh installs the toolchains.
 """
 import argparse
@@ -23,6 +25,8 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from command_line import quiet_on_closed_stdout, writable  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 TARGET = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
@@ -109,13 +113,13 @@ def command(platform, cargo_args):
 
 
 def build(platform, cargo_args, extra_env=None):
-    """Builds `cargo_args` for `platform`; prints and returns (release directory, seconds)."""
+    """Builds `cargo_args` for `platform`; prints (on stderr) and returns (release directory, seconds)."""
     argv, env = command(platform, cargo_args)
     env.update(extra_env or {})
     started = time.monotonic()
     subprocess.run(argv, cwd=ROOT, check=True, env=env)
     seconds = time.monotonic() - started
-    print(f"built {platform.name} ({' '.join(cargo_args)}) in {seconds:.1f} s")
+    print(f"built {platform.name} ({' '.join(cargo_args)}) in {seconds:.1f} s", file=sys.stderr)
     return release_dir(platform), seconds
 
 
@@ -124,16 +128,17 @@ def main(argv=None):
     parser.add_argument("tool", choices=["aem-identify"], help="the command to build")
     parser.add_argument("--platforms", default=",".join(PLATFORMS), help="comma-separated FMI platforms")
     args = parser.parse_args(argv)
-    for name in (p.strip() for p in args.platforms.split(",") if p.strip()):
+    names = [p.strip() for p in args.platforms.split(",") if p.strip()]
+    for name in names:
         if name not in PLATFORMS:
             parser.error(f"unknown platform {name}; choose from {', '.join(PLATFORMS)}")
-        platform = PLATFORMS[name]
-        release, _ = build(platform, ["--bin", args.tool, "--package", args.tool, "--locked"])
-        dist = TARGET / "dist" / name
-        dist.mkdir(parents=True, exist_ok=True)
-        shutil.copy2(release / f"{args.tool}{platform.exe_suffix}", dist / f"{args.tool}{platform.exe_suffix}")
-        print(f"wrote {dist / (args.tool + platform.exe_suffix)}")
+    outputs = {name: writable(TARGET / "dist" / name / f"{args.tool}{PLATFORMS[name].exe_suffix}") for name in names}
+    for name, output in outputs.items():
+        release, _ = build(PLATFORMS[name], ["--bin", args.tool, "--package", args.tool, "--locked"])
+        shutil.copy2(release / output.name, output)
+    for output in outputs.values():
+        print(f"wrote {output}")
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

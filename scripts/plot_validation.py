@@ -5,7 +5,8 @@
 
 Four panels against time (hours since the day's first running row): stack current, voltage,
 DC power and hydrogen flow, measured (grey) and the identified model (colour). Rows within the
-settle time after a start-up, which the RMSE leaves out, are shaded.
+settle time after a start-up, which the RMSE leaves out, are shaded. The PNG's path is checked
+for writing before the CSV is read.
 """
 import argparse
 import csv
@@ -16,6 +17,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from command_line import quiet_on_closed_stdout, writable
 
 PANELS = [("current", "Current [A]"), ("voltage", "Voltage [V]"), ("power", "Power [W]"), ("h2_flow", "H2 flow [Nl/h]")]
 
@@ -36,6 +38,7 @@ def main(argv=None):
     parser.add_argument("csv", type=Path)
     parser.add_argument("png", type=Path)
     args = parser.parse_args(argv)
+    writable(args.png)
     d = load(args.csv)
     hours = (d["time"] - d["time"][0]) / 3600.0
     fig, axes = plt.subplots(len(PANELS), 1, figsize=(11, 9), sharex=True)
@@ -54,10 +57,9 @@ def main(argv=None):
     axes[0].legend(loc="lower right", fontsize=8)
     axes[-1].set_xlabel("time since the first running row [h] (shaded: start-up settle, not compared)")
     fig.tight_layout()
-    args.png.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(args.png, dpi=110)
     print(f"wrote {args.png}")
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 
 from PIL import Image
+from command_line import quiet_on_closed_stdout, writable
 
 
 def main(argv=None):
@@ -15,10 +16,11 @@ def main(argv=None):
     parser.add_argument("dst", type=Path)
     parser.add_argument("--colors", type=int, default=64, help="palette size")
     args = parser.parse_args(argv)
+    writable(args.dst)
     image = Image.open(args.src).convert("RGB")
     image.quantize(colors=args.colors, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(args.dst, optimize=True)
     print(f"wrote {args.dst} ({args.dst.stat().st_size // 1024} kB)")
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

@@ -1,0 +1,172 @@
+"""Command-line hygiene of the Python commands, as a new user meets it.
+
+A closed stdout (`python examples/step_schedule.py | head -3`) ends every command quietly with
+status 0 (no BrokenPipeError traceback, no "Exception ignored ...") after its result files are
+written; an output path that cannot be written ends it at once with status 1 and one line
+naming the path, before any long computation. packaging/platforms.py compiles for minutes and
+examples/validation_day.py rebuilds the FMU's library, so of these two only the help and the
+argument and output-path errors are run here.
+"""
+import importlib.util
+import os
+import subprocess
+import sys
+import tomllib
+import xml.etree.ElementTree as ET
+import zipfile
+
+import pytest
+
+from conftest import ROOT
+
+VALIDATION_HEADER = ("time,setpoint,current_measured,current_model,voltage_measured,voltage_model,"
+                     "power_measured,power_model,h2_flow_measured,h2_flow_model,compared")
+COMMANDS = ["examples/step_schedule.py", "examples/step_responses.py", "examples/validation_day.py",
+            "examples/wind_farm.py", "examples/wind_hub.py", "examples/grid_cosim.py", "packaging/package.py",
+            "packaging/cross_check.py", "packaging/platforms.py", "scripts/plot_validation.py",
+            "scripts/shrink_png.py"]
+
+
+def run(args, stdout_closed=True, timeout=120, env=None, buffered=False):
+    """Runs a command of the repository. With stdout_closed its stdout is a pipe whose reading
+    end is closed before the command starts (as `| head` leaves it once it has its lines);
+    closing it before the start rather than after makes the test independent of timing.
+    Unbuffered (the default here), every print meets the closed pipe at once, so a print before
+    the result files are written shows as missing files; buffered, the pipe is met at the end."""
+    env = {**os.environ, **(env or {}), "PYTHONUNBUFFERED": "" if buffered else "1"}
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        return subprocess.run([sys.executable, *map(str, args)], cwd=ROOT, stdout=write if stdout_closed else subprocess.DEVNULL,
+                              stderr=subprocess.PIPE, text=True, timeout=timeout, env=env)
+    finally:
+        os.close(write)
+
+
+def assert_quiet(done):
+    assert done.returncode == 0, done.stderr
+    assert "Traceback" not in done.stderr and "BrokenPipeError" not in done.stderr, done.stderr
+
+
+def validation_trace(path):
+    """A small CSV in the format of `aem-identify validate --csv`."""
+    rows = [VALIDATION_HEADER] + [f"{t},75,40.1,40,42,41.9,1684.2,1676,,376,{int(t >= 60)}" for t in range(120)]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def small_png(path):
+    from PIL import Image
+
+    Image.new("RGB", (40, 30), (200, 120, 40)).save(path)
+    return path
+
+
+def packable_platforms():
+    """Platforms whose built library comes from the repository's modelDescription.xml (a build
+    from an identified parameter set leaves one that package.py --no-build rightly refuses)."""
+    spec = importlib.util.spec_from_file_location("aem_platforms", ROOT / "packaging" / "platforms.py")
+    platforms = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(platforms)
+    guid = ET.parse(ROOT / "modelDescription.xml").getroot().get("guid").encode()
+    found = []
+    for name, platform in platforms.PLATFORMS.items():
+        library = platforms.release_dir(platform) / platform.library("aem_electrolyser")
+        if library.is_file() and guid in library.read_bytes():
+            found.append(name)
+    return found
+
+
+def closed_stdout_case(name, tmp, fmu):
+    """(arguments with short horizons, result files) of command `name`."""
+    if name == "step_schedule":
+        return ["examples/step_schedule.py", "--fmu", fmu, "--out", tmp / "ss"], [tmp / "ss.csv", tmp / "ss.png"]
+    if name == "step_responses":
+        return (["examples/step_responses.py", "--fmu", fmu, "--out", tmp, "--duration", 60, "--dt", 1, "--dpi", 40],
+                [tmp / "step_responses.csv", tmp / "step_responses_table.csv", tmp / "step_responses.png"])
+    if name == "wind_farm":
+        return ["examples/wind_farm.py", "--hours", 0.1, "--csv", tmp / "wf.csv"], [tmp / "wf.csv"]
+    if name == "wind_hub":
+        return ["examples/wind_hub.py", "--fmu", fmu, "--duration", 60, "--out", tmp / "wh"], [tmp / "wh.csv", tmp / "wh.png"]
+    if name == "grid_cosim":
+        return (["examples/grid_cosim.py", "--fmu", fmu, "--duration", 1, "--gust-start", 0.2, "--out", tmp / "gc"],
+                [tmp / "gc.csv", tmp / "gc.png"])
+    if name == "package":
+        platforms = packable_platforms()
+        if not platforms:
+            pytest.skip("no built library comes from modelDescription.xml (python packaging/package.py builds one)")
+        return (["packaging/package.py", "--no-build", "--platforms", ",".join(platforms), "--out", tmp / "x.fmu"],
+                [tmp / "x.fmu"])
+    if name == "cross_check":
+        with zipfile.ZipFile(fmu) as z:
+            platforms = sorted({n.split("/")[1] for n in z.namelist() if n.startswith("binaries/") and n.count("/") == 2})
+        version = tomllib.loads((ROOT / "Cargo.toml").read_text())["workspace"]["package"]["version"]
+        return (["packaging/cross_check.py", "--fmu", fmu, "--out", tmp / "cc"],
+                [tmp / "cc/fmus/2.0/cs" / p / "aem-electrolyser-fmu" / version / "AemElectrolyser/AemElectrolyser_ref.csv"
+                 for p in platforms])
+    if name == "plot_validation":
+        return ["scripts/plot_validation.py", validation_trace(tmp / "trace.csv"), tmp / "v.png"], [tmp / "v.png"]
+    if name == "shrink_png":
+        return ["scripts/shrink_png.py", small_png(tmp / "big.png"), tmp / "small.png"], [tmp / "small.png"]
+    raise ValueError(name)
+
+
+@pytest.mark.parametrize("name", ["step_schedule", "step_responses", "wind_farm", "wind_hub", "grid_cosim", "package",
+                                  "cross_check", "plot_validation", "shrink_png"])
+def test_a_closed_stdout_ends_the_command_quietly_after_its_files_are_written(name, tmp_path, fmu_path):
+    args, outputs = closed_stdout_case(name, tmp_path, fmu_path)
+    assert_quiet(run(args))
+    missing = [o for o in outputs if not (o.is_file() and o.stat().st_size > 0)]
+    assert outputs and not missing, missing
+
+
+@pytest.mark.parametrize("name", ["wind_farm", "cross_check"])
+def test_a_buffered_stdout_meets_the_closed_pipe_at_exit_quietly(name, tmp_path, fmu_path):
+    args, outputs = closed_stdout_case(name, tmp_path, fmu_path)
+    assert_quiet(run(args, buffered=True))
+    assert all(o.is_file() for o in outputs)
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_help_on_a_closed_stdout_is_quiet(command):
+    assert_quiet(run([command, "--help"], buffered=True))  # argparse itself is quiet when unbuffered
+
+
+def test_platforms_refuses_an_unknown_platform_before_it_builds():
+    done = run(["packaging/platforms.py", "aem-identify", "--platforms", "linux64,mac"], timeout=30)
+    assert done.returncode == 2, done.stderr
+    assert "unknown platform mac" in done.stderr and "Traceback" not in done.stderr, done.stderr
+
+
+def unwritable_case(name, blocked, tmp, fmu):
+    """(arguments with the default, long horizons, extra environment) whose output lies under `blocked`."""
+    if name == "platforms":
+        return ["packaging/platforms.py", "aem-identify"], {"CARGO_TARGET_DIR": str(blocked)}
+    return {
+        "step_schedule": ["examples/step_schedule.py", "--fmu", fmu, "--out", blocked / "ss"],
+        "step_responses": ["examples/step_responses.py", "--fmu", fmu, "--out", blocked],
+        # A missing tool shows a check made too late: the synthesis would fail first.
+        "validation_day": ["examples/validation_day.py", "--out", blocked, "--tool", tmp / "no-such-tool"],
+        "wind_farm": ["examples/wind_farm.py", "--csv", blocked / "wf.csv"],
+        "wind_hub": ["examples/wind_hub.py", "--fmu", fmu, "--out", blocked / "wh"],
+        "grid_cosim": ["examples/grid_cosim.py", "--fmu", fmu, "--out", blocked / "gc"],
+        "package": ["packaging/package.py", "--no-build", "--out", blocked / "x.fmu"],
+        "cross_check": ["packaging/cross_check.py", "--fmu", fmu, "--out", blocked],
+        "plot_validation": ["scripts/plot_validation.py", validation_trace(tmp / "trace.csv"), blocked / "v.png"],
+        "shrink_png": ["scripts/shrink_png.py", small_png(tmp / "big.png"), blocked / "small.png"],
+    }[name], None
+
+
+@pytest.mark.parametrize("name", ["step_schedule", "step_responses", "validation_day", "wind_farm", "wind_hub",
+                                  "grid_cosim", "package", "cross_check", "plot_validation", "shrink_png", "platforms"])
+def test_an_unwritable_output_path_fails_fast_with_one_line(name, tmp_path, fmu_path):
+    regular_file = tmp_path / "a-file"
+    regular_file.write_text("not a folder\n")
+    blocked = regular_file / "sub"
+    args, env = unwritable_case(name, blocked, tmp_path, fmu_path)
+    # The default horizons take minutes (wind_hub, grid_cosim, platforms' build): a check
+    # after the computation runs into the timeout.
+    done = run(args, stdout_closed=False, timeout=30, env=env)
+    assert done.returncode == 1, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(blocked) in lines[0] and "cannot write" in lines[0], done.stderr
