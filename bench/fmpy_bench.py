@@ -23,6 +23,8 @@ from fmpy.fmi2 import FMU2Slave
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import python_reference  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from command_line import quiet_on_closed_stdout  # noqa: E402
 
 DAY = 86_400
 
@@ -89,4 +91,4 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

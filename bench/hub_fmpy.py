@@ -8,6 +8,9 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
 from wind_reference import wind_reference  # bench/, the script's own folder
+import sys
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from command_line import quiet_on_closed_stdout  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 FMU = ROOT / "target" / "fmu" / "AemElectrolyser.fmu"
@@ -44,4 +47,4 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)

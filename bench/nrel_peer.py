@@ -46,6 +46,10 @@ from electrolyzer.tools.design.optimization import calc_rated_system
 from electrolyzer.tools.validation import load_modeling_yaml
 
 from wind_reference import wind_reference  # bench/, the script's own folder
+import sys
+from pathlib import Path
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+from command_line import quiet_on_closed_stdout  # noqa: E402
 
 DAY, N_STACKS, PLANT_MW = 86_400, 60, 60.0
 
@@ -130,4 +134,4 @@ def version():
 
 
 if __name__ == "__main__":
-    main()
+    quiet_on_closed_stdout(main)
