@@ -98,7 +98,7 @@ impl HubTotals {
         self.energy += part.energy;
         self.h2_produced += part.h2_produced;
         self.running += part.running;
-        self.starts += part.starts;
+        self.starts = self.starts.saturating_add(part.starts);
     }
 }
 
@@ -353,9 +353,10 @@ impl Hub {
             let ty = &mut self.types[g.kind as usize];
             let command = if g.active { Command::Run(ty.params.min_setpoint) } else { Command::Stop };
             let t = g.unit.advance(&ty.params, &ty.dynamics, &mut ty.factors, &op, command, 0.0);
-            totals.starts += g.count as u64 * t.starts as u64;
+            // Counters saturate: a restored state may carry any count (found by fuzzing).
+            totals.starts = totals.starts.saturating_add(g.count as u64 * t.starts as u64);
             if self.config.policy == DispatchPolicy::Rotation {
-                g.starts += t.starts as u64;
+                g.starts = g.starts.saturating_add(t.starts as u64);
             }
         }
     }

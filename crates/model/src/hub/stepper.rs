@@ -45,7 +45,7 @@ impl Stepper {
         tally.starts += g.count as u64 * t.starts as u64;
         if self.rotation {
             g.running += t.running;
-            g.starts += t.starts as u64;
+            g.starts = g.starts.saturating_add(t.starts as u64);
         }
         tally.observe(k, g, &ty.params, &self.op);
     }

@@ -294,3 +294,20 @@ fn a_snapshot_whose_dispatch_target_disagrees_with_its_groups_is_refused() {
     assert!(e.contains("dispatch target"), "{e}");
     assert_eq!(hub.snapshot(), before);
 }
+
+/// Found by fuzzing fmi2DeSerializeFMUstate: a restored state may carry start counts near
+/// u64::MAX; the next start must not overflow (a panic in checked builds, a wrap otherwise).
+#[test]
+fn start_counters_of_a_restored_state_saturate() {
+    let mut hub = Hub::new(Parameters::default(), config(10, DispatchPolicy::Rotation, BelowMinimum::Standby), Demand::Setpoint(30.0)).unwrap();
+    run(&mut hub, Demand::Setpoint(30.0), 100.0, 10.0);
+    let mut snapshot = hub.snapshot();
+    snapshot.totals.starts = u64::MAX - 1;
+    for g in &mut snapshot.groups {
+        g.starts = u64::MAX - 1;
+    }
+    hub.restore(snapshot).unwrap();
+    run(&mut hub, Demand::Setpoint(100.0), 100.0, 10.0);
+    assert_eq!(hub.totals().starts, u64::MAX);
+    assert!(hub.snapshot().groups.iter().all(|g| g.starts >= u64::MAX - 1));
+}
