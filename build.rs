@@ -1,8 +1,10 @@
 //! Reads `modelDescription.xml` (the single source of truth for the FMU's variables; the
 //! environment variable AEM_MODEL_DESCRIPTION may name a copy with other start values), checks
 //! it, and generates `$OUT_DIR/model_description.rs`: the GUID, the model identifier, the
-//! capability flags, one enum variant per Real variable with its value reference, causality
-//! and start value, and the log categories. The FMI layer matches exhaustively on that enum,
+//! capability flags, one enum variant per variable of each type with its value reference,
+//! causality and start value, the enumeration types with their named items, and the log
+//! categories. Enumeration variables are set and got as Integers (FMI 2.0 section 2.1.7), so
+//! they are variants of `IntegerVariable` that also name their enumeration type. The FMI layer matches exhaustively on that enum,
 //! so a variable added to or removed from the XML without code is a build error.
 
 use std::collections::{BTreeMap, HashSet};
@@ -61,13 +63,29 @@ impl Type {
     }
 }
 
+/// One named item of an enumeration type (`<SimpleType><Enumeration><Item>`).
+struct Item {
+    name: String,
+    value: i32,
+    description: String,
+}
+
+/// An enumeration type of `<TypeDefinitions>`.
+struct Enumeration {
+    name: String,
+    description: String,
+    items: Vec<Item>,
+}
+
 struct Variable {
     name: String,
     vr: u32,
     ty: Type,
+    /// The enumeration type of an `<Enumeration>` variable (an Integer to FMI's functions).
+    enumeration: Option<String>,
     causality: String,
     /// The unit: the Real's unit attribute; Integer and Boolean variables (which FMI 2.0 gives
-    /// no unit attribute) state theirs in the description as "[unit]".
+    /// no unit attribute) state theirs in the description as "[unit]"; enumerations have none.
     unit: String,
     /// Start value as Rust source (`Some(..)`), or None.
     start: Option<String>,
@@ -97,6 +115,8 @@ fn generate(text: &str) -> Result<String, String> {
         .map(|c| c.children().filter(|n| n.has_tag_name("Category")).filter_map(|n| n.attribute("name")).collect())
         .unwrap_or_default();
 
+    let enumerations = enumerations(child("TypeDefinitions"))?;
+
     let mut variables = Vec::new();
     let mut seen_vr = HashSet::new();
     let mut seen_name = HashSet::new();
@@ -108,11 +128,21 @@ fn generate(text: &str) -> Result<String, String> {
             .and_then(|v| v.parse().ok())
             .ok_or(format!("{name}: valueReference missing or not an unsigned integer"))?;
         let element = sv.children().find(|n| n.is_element()).ok_or(format!("{name}: no type element"))?;
+        let enumeration = if element.has_tag_name("Enumeration") {
+            let declared = element.attribute("declaredType").ok_or(format!("{name}: an Enumeration needs a declaredType"))?;
+            if !enumerations.iter().any(|e| e.name == declared) {
+                return Err(format!("{name}: declaredType {declared} is not an enumeration of <TypeDefinitions>"));
+            }
+            Some(declared.to_string())
+        } else {
+            None
+        };
         let ty = [Type::Real, Type::Integer, Type::Boolean, Type::String]
             .into_iter()
-            .find(|t| element.has_tag_name(t.element()))
-            .ok_or(format!("{name}: only Real, Integer, Boolean and String variables are implemented"))?;
+            .find(|t| element.has_tag_name(t.element()) || (enumeration.is_some() && *t == Type::Integer))
+            .ok_or(format!("{name}: only Real, Integer, Enumeration, Boolean and String variables are implemented"))?;
         let unit = match ty {
+            Type::Integer if enumeration.is_some() => String::new(),
             Type::Real => {
                 let unit = element.attribute("unit").ok_or(format!("{name}: every Real variable must declare a unit"))?;
                 if !units.contains(unit) {
@@ -142,6 +172,12 @@ fn generate(text: &str) -> Result<String, String> {
                 Type::String => format!("{s:?}"),
             }),
         };
+        if let (Some(declared), Some(start)) = (&enumeration, &start) {
+            let items = &enumerations.iter().find(|e| &e.name == declared).expect("checked above").items;
+            if !items.iter().any(|item| item.value.to_string() == *start) {
+                return Err(format!("{name}: start {start} is not an item of {declared}"));
+            }
+        }
         if ty == Type::Integer {
             for bound in ["min", "max"] {
                 if let Some(b) = element.attribute(bound) {
@@ -167,7 +203,7 @@ fn generate(text: &str) -> Result<String, String> {
         if !seen_name.insert(name.clone()) {
             return Err(format!("{name}: name used twice"));
         }
-        variables.push(Variable { name, vr, ty, causality, unit, start });
+        variables.push(Variable { name, vr, ty, enumeration, causality, unit, start });
     }
 
     // ModelStructure: Outputs must list exactly the outputs, in order, by 1-based index.
@@ -227,6 +263,7 @@ fn generate(text: &str) -> Result<String, String> {
     writeln!(w, "/// Log categories declared in the model description.").unwrap();
     writeln!(w, "pub const LOG_CATEGORIES: &[&str] = &{categories:?};").unwrap();
 
+    enumeration_code(w, &enumerations);
     writeln!(w, "/// Causality of a variable.").unwrap();
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]").unwrap();
     writeln!(w, "pub enum Causality {{ Input, Output, Parameter }}").unwrap();
@@ -249,6 +286,67 @@ fn generate(text: &str) -> Result<String, String> {
     Ok(code)
 }
 
+/// The enumeration types of `<TypeDefinitions>`: each `<SimpleType>` must be an
+/// `<Enumeration>` with at least one item; item names and values are unique within a type.
+fn enumerations(definitions: Option<roxmltree::Node>) -> Result<Vec<Enumeration>, String> {
+    let Some(definitions) = definitions else { return Ok(Vec::new()) };
+    let mut out: Vec<Enumeration> = Vec::new();
+    for simple in definitions.children().filter(|n| n.has_tag_name("SimpleType")) {
+        let name = simple.attribute("name").ok_or("a SimpleType has no name")?.to_string();
+        if out.iter().any(|e| e.name == name) {
+            return Err(format!("SimpleType {name} is declared twice"));
+        }
+        let enumeration = simple
+            .children()
+            .find(|n| n.has_tag_name("Enumeration"))
+            .ok_or(format!("SimpleType {name}: only Enumeration types are implemented"))?;
+        let mut items: Vec<Item> = Vec::new();
+        for item in enumeration.children().filter(|n| n.has_tag_name("Item")) {
+            let item_name = item.attribute("name").ok_or(format!("{name}: an Item has no name"))?.to_string();
+            let value = item
+                .attribute("value")
+                .and_then(|v| v.parse::<i32>().ok())
+                .ok_or(format!("{name}.{item_name}: value missing or not a 32-bit integer"))?;
+            if items.iter().any(|i| i.name == item_name || i.value == value) {
+                return Err(format!("{name}.{item_name}: name or value {value} used twice"));
+            }
+            items.push(Item { name: item_name, value, description: item.attribute("description").unwrap_or("").to_string() });
+        }
+        if items.is_empty() {
+            return Err(format!("SimpleType {name}: an Enumeration needs at least one Item"));
+        }
+        out.push(Enumeration { name, description: simple.attribute("description").unwrap_or("").to_string(), items });
+    }
+    Ok(out)
+}
+
+/// `Enumeration`, `EnumerationItem` and one constant per enumeration type, by SCREAMING_SNAKE
+/// name: the items with their values and descriptions, in model-description order.
+fn enumeration_code(w: &mut String, enumerations: &[Enumeration]) {
+    writeln!(w, "/// One named item of an enumeration type.").unwrap();
+    writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]").unwrap();
+    writeln!(w, "pub struct EnumerationItem {{ pub name: &'static str, pub value: i32, pub description: &'static str }}").unwrap();
+    writeln!(w, "/// An enumeration type of `<TypeDefinitions>`.").unwrap();
+    writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq)]").unwrap();
+    writeln!(w, "pub struct Enumeration {{ pub name: &'static str, pub description: &'static str, pub items: &'static [EnumerationItem] }}").unwrap();
+    writeln!(w, "impl Enumeration {{").unwrap();
+    writeln!(w, "    /// The item with this value.").unwrap();
+    writeln!(w, "    pub fn item(&self, value: i32) -> Option<&'static EnumerationItem> {{ self.items.iter().find(|i| i.value == value) }}").unwrap();
+    writeln!(w, "}}").unwrap();
+    writeln!(w, "/// The enumeration types, by SCREAMING_SNAKE name.").unwrap();
+    writeln!(w, "pub mod enumeration {{").unwrap();
+    writeln!(w, "    use super::{{Enumeration, EnumerationItem}};").unwrap();
+    for e in enumerations {
+        writeln!(w, "    /// `{}`: {}.", e.name, e.description).unwrap();
+        writeln!(w, "    pub const {}: Enumeration = Enumeration {{ name: {:?}, description: {:?}, items: &[", screaming(&e.name), e.name, e.description).unwrap();
+        for i in &e.items {
+            writeln!(w, "        EnumerationItem {{ name: {:?}, value: {}, description: {:?} }},", i.name, i.value, i.description).unwrap();
+        }
+        writeln!(w, "    ] }};").unwrap();
+    }
+    writeln!(w, "}}").unwrap();
+}
+
 /// `RealVariable`, `IntegerVariable` or `BooleanVariable`: one variant per variable of that
 /// type, with its value reference, name, unit, causality and start value.
 fn variable_enum(w: &mut String, ty: Type, variables: &[&Variable]) {
@@ -258,7 +356,10 @@ fn variable_enum(w: &mut String, ty: Type, variables: &[&Variable]) {
     writeln!(w, "#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]").unwrap();
     writeln!(w, "pub enum {en} {{").unwrap();
     for v in variables {
-        writeln!(w, "    /// `{}` [{}], value reference {}.", v.name, v.unit, v.vr).unwrap();
+        match &v.enumeration {
+            Some(e) => writeln!(w, "    /// `{}` (enumeration {e}), value reference {}.", v.name, v.vr).unwrap(),
+            None => writeln!(w, "    /// `{}` [{}], value reference {}.", v.name, v.unit, v.vr).unwrap(),
+        }
         writeln!(w, "    {},", pascal(&v.name)).unwrap();
     }
     writeln!(w, "}}").unwrap();
@@ -289,6 +390,13 @@ fn variable_enum(w: &mut String, ty: Type, variables: &[&Variable]) {
     accessor(w, "name", "&'static str", &|v| format!("{:?}", v.name));
     writeln!(w, "    /// Unit in the model description.").unwrap();
     accessor(w, "unit", "&'static str", &|v| format!("{:?}", v.unit));
+    if ty == Type::Integer {
+        writeln!(w, "    /// The enumeration type of an Enumeration variable (None: a plain Integer).").unwrap();
+        accessor(w, "enumeration", "Option<Enumeration>", &|v| match &v.enumeration {
+            Some(e) => format!("Some(enumeration::{})", screaming(e)),
+            None => "None".into(),
+        });
+    }
     writeln!(w, "    /// Causality.").unwrap();
     accessor(w, "causality", "Causality", &|v| format!("Causality::{}", pascal(&v.causality)));
     writeln!(w, "    /// Start value (inputs and parameters).").unwrap();

@@ -5,8 +5,8 @@
     hub.step(1.0, powerReference=46e6)        # hold the reference over [t, t + 1 s]
     hub.get("hubPower", "hubEnergy")
 
-Parameters and inputs are set by name with the setter of their FMI type (Real, Integer,
-Boolean), so the FMU's variable names are the only interface.
+Parameters and inputs are set by name with the setter of their FMI type (Real, Integer or
+Enumeration, Boolean), so the FMU's variable names are the only interface.
 """
 import shutil
 from pathlib import Path
@@ -39,7 +39,7 @@ class HubFMU:
             v = self._vars[name]
             if v.type == "Real":
                 self.fmu.setReal([v.valueReference], [float(value)])
-            elif v.type == "Integer":
+            elif v.type in ("Integer", "Enumeration"):
                 self.fmu.setInteger([v.valueReference], [int(value)])
             elif v.type == "Boolean":
                 self.fmu.setBoolean([v.valueReference], [bool(value)])
@@ -51,7 +51,7 @@ class HubFMU:
         for name in names:
             v = self._vars[name]
             getter = {"Real": self.fmu.getReal, "Integer": self.fmu.getInteger,
-                      "Boolean": self.fmu.getBoolean}[v.type]
+                      "Enumeration": self.fmu.getInteger, "Boolean": self.fmu.getBoolean}[v.type]
             out.append(getter([v.valueReference])[0])
         return out[0] if len(names) == 1 else out
 

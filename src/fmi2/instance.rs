@@ -17,8 +17,8 @@ use super::logger::{Logger, LOG_EVENTS};
 use super::state_machine::FmiState;
 use super::status::{discard, error, CallResult, Status};
 use super::variables::{
-    boolean_parameter_mut, integer_output, integer_parameter_mut, real_input_mut, real_output, real_parameter_mut,
-    start_values, string_parameter_mut, Inputs,
+    boolean_parameter_mut, integer_output, integer_parameter_mut, item_name, real_input_mut, real_output,
+    real_parameter_mut, start_values, string_parameter_mut, Inputs,
 };
 
 /// Relative tolerance when comparing a master's communication point with the FMU's time;
@@ -160,10 +160,15 @@ impl Instance {
     /// module or hub in steady state for the current inputs.
     pub fn exit_initialization_mode(&mut self) -> CallResult {
         let (config, plant, sets) = self.build_plant().map_err(|e| error(format!("initialisation refused: {e}")))?;
+        let policy = format!(
+            "dispatch {}, belowMinimum {}",
+            item_name(IntegerVariable::Dispatch, self.settings.dispatch),
+            item_name(IntegerVariable::BelowMinimum, self.settings.below_minimum)
+        );
         let what = match (&plant, &sets) {
             (Plant::Module(_), _) => "one module".to_string(),
-            (_, Some(sets)) => format!("a hub of {} modules with {} parameter sets", config.hub.n_modules, sets.len()),
-            _ => format!("a hub of {} modules", config.hub.n_modules),
+            (_, Some(sets)) => format!("a hub of {} modules ({policy}) with {} parameter sets", config.hub.n_modules, sets.len()),
+            _ => format!("a hub of {} modules ({policy})", config.hub.n_modules),
         };
         self.logger.info(
             LOG_EVENTS,

@@ -156,6 +156,12 @@ pub fn integer_output(var: IntegerVariable, plant: &Plant) -> Option<i32> {
     }
 }
 
+/// The name of `value` among the items of Enumeration variable `var` ("equal" for dispatch 1),
+/// or "invalid" if it is none of them (or `var` is a plain Integer).
+pub fn item_name(var: IntegerVariable, value: i32) -> &'static str {
+    var.enumeration().and_then(|e| e.item(value)).map_or("invalid", |item| item.name)
+}
+
 /// The Boolean parameter field behind `var`, or None if `var` is not a parameter.
 pub fn boolean_parameter_mut(settings: &mut PlantSettings, var: BooleanVariable) -> Option<&mut bool> {
     match var {
@@ -174,6 +180,38 @@ pub fn string_parameter_mut(module_parameter_file: &mut String, var: StringVaria
 mod tests {
     use super::*;
     use crate::model_description::Causality;
+
+    /// The model description's enumeration items carry the model's own codes: each item's
+    /// value is the code of the model's variant of that meaning, and every code has an item.
+    #[test]
+    fn enumeration_items_are_the_model_codes() {
+        use crate::model_description::enumeration;
+        use aem_model::{BelowMinimum, DispatchPolicy};
+        let names = |e: crate::model_description::Enumeration| e.items.iter().map(|i| (i.name, i.value)).collect::<Vec<_>>();
+        assert_eq!(
+            names(enumeration::DISPATCH),
+            [("equal", DispatchPolicy::Equal as i32), ("sequential", DispatchPolicy::Sequential as i32), ("rotation", DispatchPolicy::Rotation as i32)]
+        );
+        assert_eq!(
+            names(enumeration::BELOW_MINIMUM),
+            [("stayAtMinimum", BelowMinimum::Minimum as i32), ("standby", BelowMinimum::Standby as i32), ("off", BelowMinimum::Off as i32)]
+        );
+        use OperatingState::*;
+        let states = [("idle", Idle), ("starting", Curve), ("running", Steady), ("standby", Standby), ("stopping", Blowdown)];
+        assert_eq!(names(enumeration::OPERATING_STATE), states.map(|(n, s)| (n, s.code())));
+        for e in [enumeration::DISPATCH, enumeration::BELOW_MINIMUM] {
+            for item in e.items {
+                let code = i64::from(item.value);
+                let accepted = if e.name == "Dispatch" { DispatchPolicy::from_code(code).is_ok() } else { BelowMinimum::from_code(code).is_ok() };
+                assert!(accepted, "{}.{} = {} is a code the model accepts", e.name, item.name, item.value);
+            }
+        }
+        assert_eq!(IntegerVariable::Dispatch.enumeration(), Some(enumeration::DISPATCH));
+        assert_eq!(IntegerVariable::BelowMinimum.enumeration(), Some(enumeration::BELOW_MINIMUM));
+        assert_eq!(IntegerVariable::OperatingState.enumeration(), Some(enumeration::OPERATING_STATE));
+        assert_eq!(IntegerVariable::NModules.enumeration(), None);
+        assert_eq!((item_name(IntegerVariable::Dispatch, 2), item_name(IntegerVariable::Dispatch, 9)), ("sequential", "invalid"));
+    }
 
     #[test]
     fn module_parameters_have_the_model_description_names_and_units() {

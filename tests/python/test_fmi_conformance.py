@@ -31,6 +31,7 @@ from typing import Callable
 import numpy as np
 import pytest
 from fmpy import platform, sharedLibraryExtension, simulate_fmu
+from fmpy.util import fmu_info
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
@@ -247,9 +248,12 @@ def test_fmutool_check_reports_compliance(fmu_path):
 def test_every_variable_has_a_declared_unit(model_description):
     """Every Real variable carries a unit (and display unit) defined in <UnitDefinitions>
     (section 2.2.2); Integer and Boolean variables, which FMI 2.0 gives no unit attribute, end
-    their description with the unit in brackets."""
+    their description with the unit in brackets; Enumeration variables have named items instead."""
     units = {u.name: u for u in model_description.unitDefinitions}
     for v in model_description.modelVariables:
+        if v.type == "Enumeration":
+            assert v.declaredType is not None and v.declaredType.items, f"{v.name}: an enumeration without items"
+            continue
         if v.type != "Real":
             assert re.search(r"\[[^\]]+\]$", v.description or ""), f"{v.name}: description must end with [unit]"
             continue
@@ -257,6 +261,50 @@ def test_every_variable_has_a_declared_unit(model_description):
         assert v.unit in units, f"{v.name}: unit {v.unit!r} is not in UnitDefinitions"
         if v.displayUnit:
             assert v.displayUnit in {d.name for d in units[v.unit].displayUnits}, (v.name, v.displayUnit)
+
+
+#: The enumeration types (FMI 2.0 section 2.2.3) with the codes the FMU has always used.
+ENUMERATIONS = {
+    "dispatch": ("Dispatch", {"equal": 1, "sequential": 2, "rotation": 3}),
+    "belowMinimum": ("BelowMinimum", {"stayAtMinimum": 0, "standby": 1, "off": 2}),
+    "operatingState": ("OperatingState", {"idle": 0, "starting": 1, "running": 2, "standby": 3, "stopping": 4}),
+}
+
+
+def test_enumerations_name_their_items_and_keep_the_integer_codes(fmu_path, model_description):
+    """dispatch, belowMinimum and operatingState are Enumerations of named items with the codes
+    scripts have always set through fmi2SetInteger; fmpy's dump shows the item names (in the
+    descriptions), and its reader gives each variable its type's items."""
+    variables = {v.name: v for v in model_description.modelVariables}
+    for name, (type_name, items) in ENUMERATIONS.items():
+        v = variables[name]
+        assert (v.type, v.declaredType.name) == ("Enumeration", type_name), name
+        assert {i.name: int(i.value) for i in v.declaredType.items} == items, name
+        assert all(i.description for i in v.declaredType.items), name
+    assert variables["dispatch"].start == "1" and variables["belowMinimum"].start == "0"
+    dumped = fmu_info(str(fmu_path), causalities=["parameter", "output"])
+    for name, (_, items) in ENUMERATIONS.items():
+        line = next(line for line in dumped.splitlines() if line.split()[:1] == [name])
+        assert all(item in line for item in items), (name, line)
+
+
+@pytest.mark.parametrize("name, code, label", [
+    ("dispatch", 2, "sequential"), ("dispatch", 3, "rotation"), ("belowMinimum", 2, "off"),
+])
+def test_enumeration_parameters_set_as_integers_and_named_in_the_log(driver, name, code, label):
+    """An Enumeration parameter is set with fmi2SetInteger by its item's value, read back as
+    such, and the initialisation message names the items."""
+    d = driver(logging_on=True)
+    d.fmu.setupExperiment(startTime=0.0)
+    settings = {"nModules": 4, "dispatch": 2, "belowMinimum": 1, name: code}
+    d.fmu.setInteger([d.vr[n] for n in settings], list(settings.values()))
+    d.set(setpoint=100.0)
+    d.fmu.enterInitializationMode()
+    assert d.fmu.getInteger([d.vr[name]]) == [code]
+    d.fmu.exitInitializationMode()
+    text = " ".join(m for _, _, m in d.messages)
+    assert f"{name} {label}" in text, text
+    assert d.fmu.getInteger([d.vr["operatingState"]]) == [ENUMERATIONS["operatingState"][1]["running"]]
 
 
 def test_packaged_model_description_is_the_source_file(fmu_path):
