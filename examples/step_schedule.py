@@ -4,7 +4,7 @@
     python examples/step_schedule.py [--fmu target/fmu/AemElectrolyser.fmu] [--out out/demo]
 
 Writes <out>.csv (every second) and <out>.png (current, voltage, power and hydrogen flow
-against time), then prints a short table; fmpy's and the FMU's messages go to stderr. Steps
+against time), then prints a short table; the FMU's messages go to stderr. Steps
 down follow the two-exponential response of G(s); steps up are held to the 0.22 A/s ramp limit
 until the response catches up.
 """
@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from fmpy import simulate_fmu
+from fmpy import read_model_description, simulate_fmu
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 from command_line import quiet_on_closed_stdout, writable  # noqa: E402
 
@@ -27,22 +27,29 @@ STOP_TIME = 3600.0
 OUTPUTS = ["setpoint", "current", "voltage", "power", "h2Flow", "energy", "h2Produced"]
 
 
-def input_signal():
-    """Piecewise-constant setpoint as fmpy's structured input (repeated times mark steps)."""
+def input_signal(model_description):
+    """Piecewise-constant setpoint as fmpy's structured input (repeated times mark steps).
+
+    fmpy expects a column for every input of the FMU; the inputs this demo does not drive
+    (`powerReference`, which a module in setpoint mode ignores) are held at their start values.
+    """
     rows = []
     for i, (t, sp) in enumerate(SCHEDULE):
         if i > 0:
             rows.append((t, SCHEDULE[i - 1][1]))
         rows.append((t, sp))
     rows.append((STOP_TIME, SCHEDULE[-1][1]))
-    return np.array(rows, dtype=[("time", np.float64), ("setpoint", np.float64)])
+    held = [v for v in model_description.modelVariables if v.causality == "input" and v.name != "setpoint"]
+    dtype = [("time", np.float64), ("setpoint", np.float64)] + [(v.name, np.float64) for v in held]
+    return np.array([row + tuple(float(v.start) for v in held) for row in rows], dtype=dtype)
 
 
 def simulate(fmu):
-    with contextlib.redirect_stdout(sys.stderr):  # fmpy's warnings and the FMU's log are no report
+    signal = input_signal(read_model_description(str(fmu)))
+    with contextlib.redirect_stdout(sys.stderr):  # the FMU's log is no report
         return simulate_fmu(
             str(fmu), start_time=0.0, stop_time=STOP_TIME, step_size=1.0, output_interval=1.0,
-            input=input_signal(), output=OUTPUTS,
+            input=signal, output=OUTPUTS,
         )
 
 

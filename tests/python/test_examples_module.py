@@ -53,6 +53,20 @@ def closed_form_time(u0, u1, fraction):
     return 0.5 * (lo + hi)
 
 
+def test_the_quick_start_demo_warns_only_of_its_excursion(fmu_path, tmp_path):
+    """The demo (scripts/demo.sh runs it) gives fmpy every input, so its only message is the
+    FMU's own warning when the schedule leaves the operating window (40 % at 2100 s); the run
+    ends at 100 % in steady state, current K*100."""
+    result = subprocess.run([sys.executable, str(ROOT / "examples" / "step_schedule.py"), "--fmu", str(fmu_path),
+                             "--out", str(tmp_path / "demo")], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    messages = result.stderr.splitlines()
+    assert messages == ["[WARNING] setpoint = 40 % is outside the operating window [60, 100] %; "
+                        "the module runs at 60 % until it returns"], messages
+    last = read_rows(tmp_path / "demo.csv")[-1]
+    assert float(last["current [A]"]) == pytest.approx(PAPER["gain"] * 100.0, rel=1e-3)
+
+
 def test_step_responses_match_the_closed_form(fmu_path, tmp_path):
     out = run_example("step_responses.py", "--fmu", fmu_path, "--out", tmp_path, "--duration", 1500, "--dt", 0.5)
     rows = read_rows(tmp_path / "step_responses_table.csv")
