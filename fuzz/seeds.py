@@ -7,7 +7,8 @@
     fuzz/corpus/parameter_file/   parameter files as aem-identify writes them
     fuzz/corpus/identify_csv/     the first rows of synthetic logs (aem-identify synthesize
                                   --broken), with seconds, RFC 3339 times and a module column
-                                  (first byte 1: the reader is told that column `unit` holds it)
+                                  (first byte 1: the reader is told that column `unit` holds it),
+                                  and a `;`-separated export with decimal commas (detected and given)
 
 Needs target/fmu/AemElectrolyser.fmu and target/release/aem-identify (scripts/test.sh builds both).
 """
@@ -92,6 +93,10 @@ def main():
         lines = (tmp / "seconds" / "day01.csv").read_text().splitlines()
         with_module = [lines[0] + ",unit"] + [f"{line},{'AB'[k % 2]}" for k, line in enumerate(lines[1:30])]
         (CORPUS / "identify_csv" / "modules.csv").write_bytes(b"\x01" + ("\n".join(with_module) + "\n").encode())
+        # European exports: `;` and a decimal comma, BOM and CRLF; detected (0x00) and given (0x0a).
+        european = "\ufeff" + "\r\n".join(";".join(f.replace(".", ",") for f in line.split(",")) for line in lines[:40])
+        for choice, name in ((0x00, "semicolon_detected"), (0x0A, "semicolon_given")):
+            (CORPUS / "identify_csv" / f"{name}.csv").write_bytes(bytes([choice]) + (european + "\r\n").encode())
     for target in sorted(CORPUS.iterdir()):
         print(f"{target.relative_to(ROOT)}: {len(list(target.iterdir()))} seeds")
 

@@ -6,7 +6,8 @@
 //! is the model's [`aem_model::parameter_file`], which the FMU reads.
 //!
 //! Pipeline per module ([`fit_module`]):
-//! 1. [`read`]: CSV files into gap-free blocks, bad rows skipped and counted;
+//! 1. [`read`]: CSV files into gap-free blocks, bad rows skipped and counted (separator and
+//!    decimal mark given or detected: [`dialect`]);
 //! 2. [`segments`]: running segments, setpoint steps during steady running;
 //! 3. [`polarisation`]: V = V0 + R·I at nominal temperature and pressure;
 //! 4. [`dynamics`]: K, τz, τp1, τp2 from the negative steps, then the ramp limit r from the
@@ -23,6 +24,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod columns;
+pub mod dialect;
 pub mod dynamics;
 pub mod error;
 pub mod hydrogen;
@@ -118,6 +120,8 @@ pub struct LogSummary {
     pub id: String,
     /// Files.
     pub files: usize,
+    /// The separators and decimal marks the files were read with.
+    pub dialects: Vec<read::Dialect>,
     /// Data rows read.
     pub rows_read: u64,
     /// Rows used.
@@ -263,6 +267,7 @@ pub fn fit_module(log: &ModuleLog, options: &FitOptions) -> ModuleFit {
         log: LogSummary {
             id: log.id.clone(),
             files: log.files.len(),
+            dialects: log.dialects.clone(),
             rows_read: log.rows_read,
             rows_used: log.rows_used,
             bad: log.bad.clone(),

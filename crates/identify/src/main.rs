@@ -24,7 +24,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use aem_identify::columns::ColumnMap;
 use aem_model::parameter_file::ParameterFile;
-use aem_identify::read::{self, ModuleLog, ReadOptions};
+use aem_identify::read::{self, DialectChoice, ModuleLog, ReadOptions};
 use aem_identify::synthetic::{self, CampaignSpec, CsvOptions};
 use aem_identify::validate::{self, ValidateOptions};
 use aem_identify::{self as id, Error, FitOptions};
@@ -52,6 +52,13 @@ struct InputArgs {
     /// temperature, pressure, h2_flow, module (repeatable).
     #[arg(long = "column", value_name = "KEY=NAME")]
     columns: Vec<String>,
+    /// Field separator: auto (detected per file from its header and first rows), comma,
+    /// semicolon, tab or one punctuation character.
+    #[arg(long, default_value = "auto")]
+    separator: String,
+    /// Decimal mark of numbers: auto (detected per file), point or comma.
+    #[arg(long, default_value = "auto")]
+    decimal: String,
     /// Longest time step that is not a gap [s].
     #[arg(long, default_value_t = 10.0)]
     max_gap: f64,
@@ -271,6 +278,10 @@ fn read_options(input: &InputArgs, module: &str) -> Result<ReadOptions, Error> {
         columns: ColumnMap::with_mappings(&input.columns).map_err(Error::Input)?,
         max_gap: input.max_gap,
         module: module.to_string(),
+        dialect: DialectChoice {
+            separator: DialectChoice::parse_separator(&input.separator).map_err(Error::Input)?,
+            decimal: DialectChoice::parse_decimal(&input.decimal).map_err(Error::Input)?,
+        },
     })
 }
 
@@ -295,7 +306,23 @@ fn read_all(sets: &[(String, Vec<PathBuf>)], input: &InputArgs) -> Result<Vec<Mo
     }
     bar.finish_and_clear();
     if logs.iter().all(|l| l.rows_used == 0) {
-        return Err(Error::Input("no usable row in the input".into()));
+        let read: u64 = logs.iter().map(|l| l.rows_read).sum();
+        let mut reasons = Vec::new();
+        for reason in read::BadRow::ALL {
+            let count: u64 = logs.iter().map(|l| l.bad.count(reason)).sum();
+            if let Some(first) = logs.iter().find_map(|l| l.bad.first(reason)) {
+                reasons.push(format!("{} {count}, first {}:{}", reason.label(), first.path.display(), first.line));
+            }
+        }
+        let dialects: Vec<String> = logs.iter().flat_map(|l| &l.dialects).map(ToString::to_string).collect();
+        let mut message = format!("no usable row in the input ({read} rows read");
+        if !reasons.is_empty() {
+            message += &format!(", skipped: {}", reasons.join("; "));
+        }
+        if let Some(dialect) = dialects.first() {
+            message += &format!("; read as {dialect}: if that is wrong, give --separator and --decimal");
+        }
+        return Err(Error::Input(message + ")"));
     }
     Ok(logs)
 }

@@ -5,15 +5,19 @@
 //! and its time is later than the previous used row of the same module in the same file.
 //! Otherwise it is skipped and counted once, under the reason of its first bad field
 //! ([`BadRow`]). A time step longer than [`ReadOptions::max_gap`] is a gap: it is counted and
-//! closes the block, so no later step bridges it. Files are read in parallel.
+//! closes the block, so no later step bridges it. Files are read in parallel. The separator and
+//! decimal mark are given or detected per file ([`crate::dialect`]).
 
 use std::collections::HashMap;
 use std::fs::File;
+use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use super::columns::{Channel, ColumnMap};
+pub use super::dialect::{DecimalMark, Dialect, DialectChoice};
+use super::dialect::SAMPLE_LINES;
 use super::error::{Error, Result};
 
 /// Why a data row was skipped.
@@ -163,6 +167,8 @@ pub struct ModuleLog {
     pub rows_used: u64,
     /// Files that contributed rows.
     pub files: Vec<PathBuf>,
+    /// The dialects the files were read with, each once, in order of first use.
+    pub dialects: Vec<Dialect>,
 }
 
 impl ModuleLog {
@@ -177,6 +183,11 @@ impl ModuleLog {
         self.rows_read += other.rows_read;
         self.rows_used += other.rows_used;
         self.files.extend(other.files);
+        for d in other.dialects {
+            if !self.dialects.contains(&d) {
+                self.dialects.push(d);
+            }
+        }
     }
 }
 
@@ -189,11 +200,13 @@ pub struct ReadOptions {
     pub max_gap: f64,
     /// Module id for files without a module column.
     pub module: String,
+    /// Field separator and decimal mark (detected per file where not given).
+    pub dialect: DialectChoice,
 }
 
 impl Default for ReadOptions {
     fn default() -> Self {
-        ReadOptions { columns: ColumnMap::default(), max_gap: 10.0, module: "module".into() }
+        ReadOptions { columns: ColumnMap::default(), max_gap: 10.0, module: "module".into(), dialect: DialectChoice::default() }
     }
 }
 
@@ -266,10 +279,40 @@ pub fn read_file(path: &Path, options: &ReadOptions) -> Result<Vec<ModuleLog>> {
     read_csv(file, path, options)
 }
 
+/// The header and the first [`SAMPLE_LINES`] rows of `source`, for dialect detection.
+fn read_head(source: &mut impl BufRead, path: &Path) -> Result<Vec<u8>> {
+    let mut head = Vec::new();
+    for _ in 0..=SAMPLE_LINES {
+        let n = source.read_until(b'\n', &mut head).map_err(|e| io_error(path, e))?;
+        if n == 0 {
+            break;
+        }
+    }
+    Ok(head)
+}
+
 /// Reads CSV text from `source` into one [`ModuleLog`] per module id found in it; `path`
 /// names it in messages and in the logs' blocks.
-pub fn read_csv(source: impl std::io::Read, path: &Path, options: &ReadOptions) -> Result<Vec<ModuleLog>> {
-    let mut reader = csv::ReaderBuilder::new().flexible(true).has_headers(false).from_reader(source);
+pub fn read_csv(source: impl Read, path: &Path, options: &ReadOptions) -> Result<Vec<ModuleLog>> {
+    Ok(read_csv_with_dialect(source, path, options)?.0)
+}
+
+/// [`read_csv`], also giving the dialect the file was read with.
+pub fn read_csv_with_dialect(source: impl Read, path: &Path, options: &ReadOptions) -> Result<(Vec<ModuleLog>, Dialect)> {
+    let mut source = BufReader::new(source);
+    let mut head = read_head(&mut source, path)?;
+    let dialect = options
+        .dialect
+        .resolve(&head)
+        .map_err(|message| Error::Content { path: path.into(), line: 1, message })?;
+    if head.starts_with(b"\xef\xbb\xbf") {
+        head.drain(..3); // A UTF-8 byte order mark is no part of the first column's name.
+    }
+    let mut reader = csv::ReaderBuilder::new()
+        .flexible(true)
+        .has_headers(false)
+        .delimiter(dialect.separator)
+        .from_reader(std::io::Cursor::new(head).chain(source));
     let mut record = csv::ByteRecord::new();
     let header_ok = reader.read_byte_record(&mut record).map_err(|e| csv_error(path, &e))?;
     if !header_ok {
@@ -284,12 +327,13 @@ pub fn read_csv(source: impl std::io::Read, path: &Path, options: &ReadOptions) 
                 path: path.into(),
                 line: 1,
                 message: format!(
-                    "no column `{}` for {} [{}] (columns: {}); map one with --column {}=NAME",
+                    "no column `{}` for {} [{}] (columns: {}; read as {dialect}); map one with --column {}=NAME{}",
                     options.columns.name(required),
                     required,
                     required.unit(),
                     header.join(", "),
-                    required.key()
+                    required.key(),
+                    if header.len() < 2 { " or give the separator with --separator" } else { "" }
                 ),
             });
         }
@@ -339,9 +383,9 @@ pub fn read_csv(source: impl std::io::Read, path: &Path, options: &ReadOptions) 
             b.bad.add(BadRow::ShortRow, path, line);
             continue;
         }
-        let parsed = parse_time(record.get(time_col).unwrap_or_default()).and_then(|t| {
+        let parsed = parse_time_in(record.get(time_col).unwrap_or_default(), dialect.decimal).and_then(|t| {
             for &(slot, col) in &measured {
-                values[slot] = parse_number(record.get(col).unwrap_or_default())?;
+                values[slot] = parse_number_in(record.get(col).unwrap_or_default(), dialect.decimal)?;
             }
             Ok(t)
         });
@@ -352,11 +396,11 @@ pub fn read_csv(source: impl std::io::Read, path: &Path, options: &ReadOptions) 
     }
     let mut logs: Vec<ModuleLog> = builders
         .into_iter()
-        .map(|(id, b)| b.finish(id, path))
+        .map(|(id, b)| b.finish(id, path, dialect))
         .collect();
     debug_assert_eq!(logs.iter().map(|l| l.rows_read).sum::<u64>(), rows_read);
     logs.sort_by(|a, b| a.id.cmp(&b.id));
-    Ok(logs)
+    Ok((logs, dialect))
 }
 
 fn builder<'a>(builders: &'a mut HashMap<String, Builder>, id: &str, path: &Path, present: &[bool; 6]) -> &'a mut Builder {
@@ -415,7 +459,7 @@ impl Builder {
         self.rows_used += 1;
     }
 
-    fn finish(mut self, id: String, path: &Path) -> ModuleLog {
+    fn finish(mut self, id: String, path: &Path, dialect: Dialect) -> ModuleLog {
         self.blocks.push(self.current);
         self.blocks.retain(|b| !b.is_empty());
         ModuleLog {
@@ -426,6 +470,7 @@ impl Builder {
             rows_used: self.rows_used,
             bad: self.bad,
             files: vec![path.to_path_buf()],
+            dialects: vec![dialect],
         }
     }
 }
@@ -452,10 +497,36 @@ pub fn parse_number(field: &[u8]) -> std::result::Result<f64, BadRow> {
     }
 }
 
+/// [`parse_number`] for numbers written with `decimal` (`12,5` with a decimal comma; a field
+/// holding a point then is text).
+pub fn parse_number_in(field: &[u8], decimal: DecimalMark) -> std::result::Result<f64, BadRow> {
+    match decimal {
+        DecimalMark::Point => parse_number(field),
+        DecimalMark::Comma => {
+            if field.contains(&b'.') {
+                return Err(if field.iter().all(u8::is_ascii_whitespace) { BadRow::EmptyField } else { BadRow::Text });
+            }
+            let mut pointed = [0u8; 64];
+            if field.len() > pointed.len() {
+                return Err(BadRow::Text);
+            }
+            for (out, &b) in pointed.iter_mut().zip(field) {
+                *out = if b == b',' { b'.' } else { b };
+            }
+            parse_number(&pointed[..field.len()])
+        }
+    }
+}
+
 /// A time field [s]: seconds as a number, or an RFC 3339 timestamp as seconds since the Unix
 /// epoch (e.g. `2025-10-22T08:00:01.5+02:00`).
 pub fn parse_time(field: &[u8]) -> std::result::Result<f64, BadRow> {
-    match parse_number(field) {
+    parse_time_in(field, DecimalMark::Point)
+}
+
+/// [`parse_time`] with seconds written with `decimal` (timestamps keep RFC 3339's point).
+pub fn parse_time_in(field: &[u8], decimal: DecimalMark) -> std::result::Result<f64, BadRow> {
+    match parse_number_in(field, decimal) {
         Err(BadRow::Text) => {}
         other => return other,
     }

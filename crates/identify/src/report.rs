@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use serde_json::{json, Value};
 
 use super::dynamics::Estimate;
-use super::read::BadRow;
+use super::read::{BadRow, Dialect};
 use super::{ModuleFit, Stage};
 use aem_model::parameter_file::Spread;
 
@@ -62,6 +62,10 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
         "Module {}: {} file(s), {} rows read, {} used",
         log.id, log.files, log.rows_read, log.rows_used
     );
+    if log.dialects.iter().any(|d| *d != Dialect::default()) {
+        let read_as: Vec<String> = log.dialects.iter().map(Dialect::to_string).collect();
+        let _ = writeln!(out, "  read as {}", read_as.join("; "));
+    }
     let bad: Vec<String> = BadRow::ALL
         .iter()
         .filter(|r| log.bad.count(**r) > 0)
@@ -246,6 +250,7 @@ pub fn statistics_json(fit: &ModuleFit) -> Value {
         "rowsRead": fit.log.rows_read,
         "rowsUsed": fit.log.rows_used,
         "files": fit.log.files,
+        "dialects": fit.log.dialects.iter().map(Dialect::to_string).collect::<Vec<_>>(),
         "skippedRows": bad,
         "gaps": fit.log.bad.gaps,
         "gapSeconds": fit.log.bad.gap_seconds,
