@@ -140,7 +140,7 @@ fn main() {
     let rated = MODULES as f64 * power_at_setpoint(&base, base.max_setpoint);
     let reference = wind_reference(DAY, rated, 42);
     let op = OperationParameters { below_minimum: BelowMinimum::Standby, ..Default::default() };
-    let config = |policy| HubConfig { n_modules: MODULES, policy, hysteresis: 5.0, operation: op };
+    let config = |policy| HubConfig { n_modules: MODULES, policy, hysteresis: 5.0, operation: op, compensation: false };
     let first = Demand::Power(reference[0]);
     let equal = Hub::new(base, config(DispatchPolicy::Equal), first);
     let sequential = Hub::new(base, config(DispatchPolicy::Sequential), first);

@@ -14,6 +14,15 @@
 //! minimum either stays put (current ramps at r) or follows h (current tracks I_tf); the
 //! instant where it switches is located by a bracketed root search. Everything else is
 //! closed form, so results at common time points do not depend on the step size.
+//!
+//! Reserve compensation (optional, [`CurrentDynamics::with_compensation`]): the setpoint is
+//! pre-filtered by F(s) = (τp2 s + 1)/(τz s + 1), which cancels the slow pole:
+//!   G(s)·F(s) = K/(τp1 s + 1),   i.e. I_tf follows K·u with the fast pole alone.
+//! In modal form the fast mode is driven by K·u/a and the slow one by 0 (τp1·dz1/dt = K·u/a − z1,
+//! τp2·dz2/dt = −z2; I_tf = a·z1 + b·z2). For u held over a step this is the plain step in
+//! shifted states zi' = zi + K·ci with c1 = −(b/a)·u, c2 = u (so a·c1 + b·c2 = 0 and I_tf is
+//! unchanged): the same exact step, rate limit included. A first-order response of a setpoint
+//! inside the window stays inside the window.
 
 use super::parameters::Parameters;
 use super::roots::monotone_root;
@@ -59,6 +68,8 @@ pub struct CurrentDynamics {
     k11: f64,
     k22: f64,
     k12: f64,
+    /// Reserve compensation: the slow pole is cancelled by the setpoint pre-filter.
+    compensated: bool,
 }
 
 /// Decay of both modes over one interval of length L: e^(−λi L) and 1 − e^(−λi L)
@@ -209,12 +220,28 @@ impl CurrentDynamics {
             k11: 0.5 * a * a * t1,
             k22: 0.5 * b * b * t2,
             k12: 2.0 * a * b / (lambda1 + lambda2),
+            compensated: false,
         }
     }
 
-    /// Steady state at a (clamped) setpoint [%]: z1 = z2 = I = K·u.
+    /// The same dynamics with reserve compensation on or off (see the module's doc).
+    pub fn with_compensation(mut self, on: bool) -> Self {
+        self.compensated = on;
+        self
+    }
+
+    /// Whether the setpoint pre-filter cancels the slow pole.
+    pub fn is_compensated(&self) -> bool {
+        self.compensated
+    }
+
+    /// Steady state at a (clamped) setpoint [%]: z1 = z2 = I = K·u; compensated z1 = K·u/a,
+    /// z2 = 0 (I = K·u all the same).
     pub fn steady_state(&self, setpoint: f64) -> CurrentState {
         let y = self.gain * setpoint;
+        if self.compensated {
+            return CurrentState { z1: y / self.a, z2: 0.0, current: y };
+        }
         CurrentState { z1: y, z2: y, current: y }
     }
 
@@ -300,6 +327,16 @@ impl CurrentDynamics {
         h: f64,
         factors: &mut StepFactors,
     ) -> CurrentIntegrals {
+        if self.compensated {
+            // The plain step in shifted states (see the module's doc); I_tf is the same in both.
+            let (c1, c2) = (-self.gain * u * self.b / self.a, self.gain * u);
+            state.z1 += c1;
+            state.z2 += c2;
+            let integrals = self.plain().advance(state, u, h, factors);
+            state.z1 -= c1;
+            state.z2 -= c2;
+            return integrals;
+        }
         if factors.h != h {
             let decay = self.decay(h);
             *factors = StepFactors { h, decay, tracking: self.tracking_from(h, &decay) };
@@ -313,10 +350,17 @@ impl CurrentDynamics {
         self.advance_segment(state, u, 0.0, h, &decay)
     }
 
+    /// The same dynamics without compensation.
+    fn plain(&self) -> CurrentDynamics {
+        CurrentDynamics { compensated: false, ..*self }
+    }
+
     /// Advances `state` by `h` > 0 seconds with a setpoint that rises linearly from `u0` [%]
     /// at `slope` [%/s] (an interpolated input), returning the exact integrals. The caller
-    /// keeps the setpoint inside the operating window over the step.
+    /// keeps the setpoint inside the operating window over the step, and holds the setpoint of
+    /// compensated dynamics (their plants take no slope).
     pub fn advance_linear(&self, state: &mut CurrentState, u0: f64, slope: f64, h: f64) -> CurrentIntegrals {
+        debug_assert!(!self.compensated, "compensated dynamics take held setpoints only");
         self.advance_segment(state, u0, slope, h, &self.decay(h))
     }
 
@@ -644,6 +688,58 @@ mod tests {
             let (s, _) = simulate(&d, u0, u1, 0.25, t);
             let want = if t < meet { p.gain * u0 + p.ramp_up_limit * t } else { step_response(&p, u0, u1, t) };
             assert!((s.current - want).abs() < 1e-9, "t={t}: {} vs {want}", s.current);
+        }
+    }
+
+    /// Compensated: a falling step is the first order K u1 + K(u0 − u1) e^(−t/τp1) with its
+    /// charge in closed form; a rising one ramps at r until it meets it; neither leaves the
+    /// currents of the window, and results do not depend on the step size.
+    #[test]
+    fn compensation_turns_steps_into_the_fast_first_order() {
+        let p = Parameters::default();
+        let d = CurrentDynamics::new(&p).with_compensation(true);
+        let (k, t1, r) = (p.gain, p.tau_pole1, p.ramp_up_limit);
+        let first_order = |u0: f64, u1: f64, t: f64| k * u1 + k * (u0 - u1) * (-t / t1).exp();
+        for &t in &[0.5, 2.0, 7.5, 30.0, 400.0] {
+            let (s, charge) = simulate(&d, 90.0, 60.0, 0.5, t);
+            assert!((s.current - first_order(90.0, 60.0, t)).abs() < 1e-9, "t={t}: {}", s.current);
+            let want = k * 60.0 * t + k * 30.0 * t1 * (1.0 - (-t / t1).exp());
+            assert!((charge - want).abs() < 1e-9 * want, "t={t}: charge {charge} vs {want}");
+        }
+        // Rising 60 → 61 %: the first order rises faster than r at first, so the current ramps
+        // from K·60 until K·60 + r t meets it.
+        let f = |t: f64| first_order(60.0, 61.0, t) - (k * 60.0 + r * t);
+        let (mut lo, mut hi) = (1e-6, 100.0);
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if f(mid) > 0.0 { lo = mid } else { hi = mid }
+        }
+        for &t in &[0.5, 1.0, 2.0, 4.0, 10.0, 60.0] {
+            let (s, _) = simulate(&d, 60.0, 61.0, 0.25, t);
+            let want = if t < lo { k * 60.0 + r * t } else { first_order(60.0, 61.0, t) };
+            assert!((s.current - want).abs() < 1e-9, "t={t}: {} vs {want}", s.current);
+        }
+        let schedule = [(100.0, 30.0), (60.0, 45.0), (85.0, 61.0), (60.0, 17.0), (100.0, 300.0)];
+        let run = |h: f64| {
+            let mut s = d.steady_state(80.0);
+            let mut f = StepFactors::default();
+            let mut out = Vec::new();
+            for &(u, dur) in &schedule {
+                for _ in 0..(dur / h).round() as usize {
+                    d.advance(&mut s, u, h, &mut f);
+                    let i_tf = d.unlimited_current(&s);
+                    assert!(i_tf >= k * 60.0 - 1e-9 && i_tf <= k * 100.0 + 1e-9, "I_tf {i_tf} left the window");
+                    assert!(s.current <= i_tf + 1e-9);
+                }
+                out.push(s.current);
+            }
+            out
+        };
+        let reference = run(1.0);
+        for h in [0.25, 0.5] {
+            for (got, want) in run(h).iter().zip(&reference) {
+                assert!((got - want).abs() < 1e-9, "h={h}: {got} vs {want}");
+            }
         }
     }
 

@@ -41,11 +41,20 @@ pub struct HubConfig {
     pub hysteresis: f64,
     /// Start-up, standby and shut-down.
     pub operation: OperationParameters,
+    /// Reserve compensation: every module's setpoint is pre-filtered so that the slow pole
+    /// is cancelled ([`CurrentDynamics::with_compensation`]).
+    pub compensation: bool,
 }
 
 impl Default for HubConfig {
     fn default() -> Self {
-        HubConfig { n_modules: 1, policy: DispatchPolicy::Equal, hysteresis: 5.0, operation: OperationParameters::default() }
+        HubConfig {
+            n_modules: 1,
+            policy: DispatchPolicy::Equal,
+            hysteresis: 5.0,
+            operation: OperationParameters::default(),
+            compensation: false,
+        }
     }
 }
 
@@ -190,7 +199,7 @@ impl Hub {
             max_power += count as f64 * power_at_setpoint(&params, params.max_setpoint).max(op.start_power).max(op.standby_power);
             types.push(ModuleType {
                 count,
-                dynamics: CurrentDynamics::new(&params),
+                dynamics: CurrentDynamics::new(&params).with_compensation(config.compensation),
                 factors: StepFactors::default(),
                 h2_per_coulomb: params.h2_coefficient / SECONDS_PER_HOUR,
                 params,
@@ -208,7 +217,8 @@ impl Hub {
             max_power,
             order: Vec::new(),
             lanes: None,
-            lanes_enabled: true,
+            // The lanes step the plain dynamics only.
+            lanes_enabled: !config.compensation,
             aligned: false,
             partials: Vec::new(),
             surveyed: None,
@@ -484,6 +494,23 @@ impl Hub {
             }
         }
         self.groups.truncate(w + 1);
+    }
+
+    /// Parameter set `kind` (0: the first, which also sets the dispatch's limits).
+    pub fn parameter_set(&self, kind: usize) -> &Parameters {
+        &self.types[kind].params
+    }
+
+    /// The steady stack power the operating window allows the whole hub [W]: every module at
+    /// maxSetpoint at most; at least every module at minSetpoint where modules never stop
+    /// (belowMinimum = stay at minimum), else 0 (start-up and standby power aside).
+    pub fn power_range(&self) -> (f64, f64) {
+        let stays = self.config.operation.below_minimum == BelowMinimum::Minimum;
+        self.types.iter().fold((0.0, 0.0), |(lo, hi), ty| {
+            let n = ty.count as f64;
+            let min = if stays { n * power_at_setpoint(&ty.params, ty.params.min_setpoint) } else { 0.0 };
+            (lo + min, hi + n * power_at_setpoint(&ty.params, ty.params.max_setpoint))
+        })
     }
 
     /// The configuration.

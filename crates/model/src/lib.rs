@@ -29,6 +29,7 @@ pub mod operation;
 pub mod parameter_file;
 pub mod parameters;
 pub mod plant;
+pub mod reserve;
 pub mod spread;
 mod roots;
 mod select;
@@ -39,7 +40,8 @@ pub use parameters::{ModuleParameter, ParameterError, Parameters};
 pub use dispatch::{Demand, DispatchPolicy};
 pub use hub::{Hub, HubConfig};
 pub use operation::{BelowMinimum, OperatingState, OperationParameters};
-pub use plant::{Plant, PlantConfig, PlantSettings, PlantSnapshot};
+pub use plant::{Plant, PlantConfig, PlantSettings, PlantSnapshot, ReserveStep};
+pub use reserve::{FastReserve, FrequencyResponse, ReserveSettings};
 
 /// A number for messages: plain where that is short, scientific otherwise (1e306, not 307 digits).
 pub fn shown(x: f64) -> String {

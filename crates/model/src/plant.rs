@@ -9,15 +9,20 @@
 //!   parameters, or per-module parameter sets such as those `aem-identify` writes: module k
 //!   of N has set k mod M of M sets).
 //!
+//! A plant that offers frequency reserves ([`ReserveSettings`]) is always a hub (of one module
+//! or more), which holds its inputs over a step; [`Plant::step_with_reserves`] adds the request
+//! to its demand.
+//!
 //! Module outputs of a hub are per-module means: I = ΣI/N [A], P = P_hub/N [W],
 //! F = F_hub/N [Nl/h], E = E_hub/N [J], H = H_hub/N [Nl]; V is the mean of V0 + R·I over
 //! the modules carrying current [V] (0 when none does).
 
-use super::dispatch::{Demand, DispatchPolicy};
+use super::dispatch::{power_at_setpoint, setpoint_for_power, Demand, DispatchPolicy};
 use super::hub::{Hub, HubConfig, HubReadings, HubSnapshot, H2_KG_PER_NL};
 use super::module::{Module, ModuleState, StepError};
 use super::operation::{BelowMinimum, OperatingState, OperationParameters};
 use super::parameters::{ParameterError, Parameters};
+use super::reserve::{FrequencyResponse, ReserveSettings};
 use super::spread::spread_parameters;
 
 const SECONDS_PER_HOUR: f64 = 3600.0;
@@ -54,6 +59,8 @@ pub struct PlantSettings {
     pub parameter_spread: f64,
     /// spreadSeed [1].
     pub spread_seed: i32,
+    /// The frequency reserves offered and the compensation.
+    pub reserve: ReserveSettings,
 }
 
 impl Default for PlantSettings {
@@ -75,6 +82,7 @@ impl Default for PlantSettings {
             stop_duration: operation.stop_duration,
             parameter_spread: 0.0,
             spread_seed: 1,
+            reserve: ReserveSettings::default(),
         }
     }
 }
@@ -90,6 +98,8 @@ pub struct PlantConfig {
     pub parameter_spread: f64,
     /// Seed of the spread.
     pub spread_seed: u64,
+    /// The frequency reserves offered (validated).
+    pub reserve: ReserveSettings,
 }
 
 impl PlantSettings {
@@ -122,9 +132,17 @@ impl PlantSettings {
                 stop_duration: self.stop_duration,
                 below_minimum: BelowMinimum::from_code(self.below_minimum as i64)?,
             },
+            compensation: self.reserve.compensation,
         };
         super::hub::validate(&hub)?;
-        Ok(PlantConfig { hub, power_input: self.power_input, parameter_spread: spread, spread_seed: self.spread_seed as u32 as u64 })
+        self.reserve.validate()?;
+        Ok(PlantConfig {
+            hub,
+            power_input: self.power_input,
+            parameter_spread: spread,
+            spread_seed: self.spread_seed as u32 as u64,
+            reserve: self.reserve,
+        })
     }
 }
 
@@ -136,6 +154,7 @@ impl PlantConfig {
             && self.hub.operation.below_minimum == BelowMinimum::Minimum
             && !self.power_input
             && self.parameter_spread == 0.0
+            && !self.reserve.offered()
     }
 
     /// The hub's demand for these inputs.
@@ -146,6 +165,20 @@ impl PlantConfig {
             Demand::Setpoint(setpoint)
         }
     }
+}
+
+/// What a step asked of the reserves and what the operating window let the plant give.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReserveStep {
+    /// The request at the end of the step [W] (negative: draw less).
+    pub request: f64,
+    /// The power the plant is asked to draw without reserves [W].
+    pub baseline: f64,
+    /// The steady power the operating window allows (least, most) [W].
+    pub range: (f64, f64),
+    /// The part of the request (largest over the step) that the window keeps the plant from
+    /// delivering [W], with the request's sign; 0 if it can deliver all of it.
+    pub shortfall: f64,
 }
 
 /// The time-varying state of a plant, for saving and restoring.
@@ -203,6 +236,26 @@ impl Plant {
         Ok(Plant::Hub(Box::new(hub), readings))
     }
 
+    /// [`Plant::new`] in steady state for the inputs with the reserves' `request` [W] added
+    /// (see [`Plant::step_with_reserves`]).
+    pub fn with_request(
+        params: Parameters,
+        config: &PlantConfig,
+        module_sets: Option<&[Parameters]>,
+        setpoint: f64,
+        power_reference: f64,
+        request: f64,
+    ) -> Result<Self, ParameterError> {
+        let plant = Plant::new(params, config, module_sets, setpoint, power_reference)?;
+        if request == 0.0 {
+            return Ok(plant);
+        }
+        match plant.requested_demand(config, setpoint, power_reference, request) {
+            Demand::Power(p) => Plant::new(params, config, module_sets, setpoint, p),
+            Demand::Setpoint(u) => Plant::new(params, config, module_sets, u, power_reference),
+        }
+    }
+
     /// Whether the plant integrates a setpoint slope (only a single module does).
     pub fn takes_setpoint_slope(&self) -> bool {
         matches!(self, Plant::Module(_))
@@ -223,6 +276,100 @@ impl Plant {
                 Ok(())
             }
         }
+    }
+
+    /// Advances by `h` seconds from time `t` [s] with the inputs held and the frequency `f`
+    /// [Hz] held, adding the reserves' request to the demand; the step is cut where FFR's
+    /// support ends. Refused requests leave the plant unchanged (FFR's state may have moved).
+    #[allow(clippy::too_many_arguments)]
+    pub fn step_with_reserves(
+        &mut self,
+        config: &PlantConfig,
+        response: &mut FrequencyResponse,
+        setpoint: f64,
+        slope: f64,
+        power_reference: f64,
+        frequency: f64,
+        t: f64,
+        h: f64,
+    ) -> Result<ReserveStep, StepError> {
+        if !frequency.is_finite() {
+            return Err(StepError::NonFiniteSetpoint(frequency));
+        }
+        response.end_due(t);
+        response.begin_step(t, frequency);
+        let mut report = self.reserve_step(config, setpoint, power_reference, response.request(frequency));
+        let (mut now, mut left) = (t, h);
+        while left > 0.0 {
+            let cut = response.next_event().filter(|until| *until > now && *until - now < left);
+            let piece = cut.map_or(left, |until| until - now);
+            let request = response.request(frequency);
+            self.step_requested(config, setpoint, slope, power_reference, request, piece)?;
+            let step = self.reserve_step(config, setpoint, power_reference, request);
+            if step.shortfall.abs() > report.shortfall.abs() {
+                report.shortfall = step.shortfall;
+            }
+            now += piece;
+            left = if cut.is_some() { left - piece } else { 0.0 };
+            if cut.is_some() {
+                response.end_due(f64::INFINITY); // the support ends exactly at the cut
+            }
+        }
+        report.request = response.request(frequency);
+        Ok(report)
+    }
+
+    /// The demand for these inputs with `request` [W] added: to the power reference, or in
+    /// setpoint mode to the power the setpoint stands for (N modules at the first parameter
+    /// set's steady power at that setpoint), converted back to a setpoint.
+    fn requested_demand(&self, config: &PlantConfig, setpoint: f64, power_reference: f64, request: f64) -> Demand {
+        match (config.demand(setpoint, power_reference), self) {
+            (Demand::Power(p), _) => Demand::Power(p + request),
+            (Demand::Setpoint(u), Plant::Hub(hub, _)) => {
+                let (p0, n) = (hub.parameter_set(0), self.modules());
+                Demand::Setpoint(setpoint_for_power(p0, power_at_setpoint(p0, u.max(0.0)) + request / n))
+            }
+            (demand, Plant::Module(_)) => demand,
+        }
+    }
+
+    /// One step of a constant `request` [W] ([`Plant::step`] where it is 0).
+    fn step_requested(&mut self, config: &PlantConfig, setpoint: f64, slope: f64, power_reference: f64, request: f64, h: f64) -> Result<(), StepError> {
+        if request == 0.0 {
+            return self.step(config, setpoint, slope, power_reference, h);
+        }
+        let demand = self.requested_demand(config, setpoint, power_reference, request);
+        match self {
+            Plant::Hub(hub, readings) if slope == 0.0 => {
+                hub.step(demand, h)?;
+                *readings = hub.readings();
+                Ok(())
+            }
+            Plant::Hub(..) => Err(StepError::SlopeNotSupported(slope)),
+            // A plant that offers reserves is a hub; a module is never asked for one.
+            Plant::Module(_) => self.step(config, setpoint, slope, power_reference, h),
+        }
+    }
+
+    /// What the operating window lets the plant deliver of `request` [W] at these inputs.
+    pub fn reserve_step(&self, config: &PlantConfig, setpoint: f64, power_reference: f64, request: f64) -> ReserveStep {
+        let (baseline, lo, hi) = match self {
+            Plant::Module(m) => {
+                let p = m.parameters();
+                let power = |u: f64| power_at_setpoint(p, u);
+                (power(p.clamp_setpoint(setpoint)), power(p.min_setpoint), power(p.max_setpoint))
+            }
+            Plant::Hub(hub, _) => {
+                let (lo, hi) = hub.power_range();
+                let baseline = match config.demand(setpoint, power_reference) {
+                    Demand::Power(p) => p,
+                    Demand::Setpoint(u) => self.modules() * power_at_setpoint(hub.parameter_set(0), u.max(0.0)),
+                };
+                (baseline, lo, hi)
+            }
+        };
+        let deliverable = (baseline + request).clamp(lo, hi) - baseline.clamp(lo, hi);
+        ReserveStep { request, baseline, range: (lo, hi), shortfall: request - deliverable }
     }
 
     /// The time-varying state.
