@@ -4,6 +4,14 @@
     python3 packaging/package.py [--out target/fmu/AemElectrolyser.fmu] [--no-build]
     python3 packaging/package.py --parameters params.json [--module ID] --out my.fmu
 
+With --integer-enumerations, dispatch, belowMinimum and operatingState are declared as plain
+Integers (same value references, same codes, ranges from the enumerations' items) in the
+shipped model description: for importers that ignore FMI enumerations (libcosim and Ecos
+do), so that their users can still set a hub's dispatch. The binary is the same; with
+--from FMU an FMU already built is repackaged that way, without building:
+
+    python3 packaging/package.py --integer-enumerations --from target/fmu/AemElectrolyser.fmu --out AemInteger.fmu
+
 With --parameters (a file written by `aem-identify fit -o`), the FMU's parameter start values
 are the identified ones: the copy of modelDescription.xml that goes into the zip gets them
 (and a GUID derived from them), and the binary is built from that copy (build.rs reads the
@@ -126,6 +134,34 @@ def apply_parameters(xml_text: str, parameters: dict, origin: str):
     return text, values, new_guid
 
 
+def integer_enumerations(xml_text: str) -> str:
+    """The model description with every Enumeration variable declared as an Integer with the
+    items' range (min, max) and its start, and without <TypeDefinitions>; the rest as written."""
+    root = ET.fromstring(xml_text)
+    items = {}
+    for simple in root.iter("SimpleType"):
+        values = [int(i.get("value")) for i in simple.iter("Item")]
+        items[simple.get("name")] = (min(values), max(values))
+
+    def as_integer(m):
+        attrs = dict(re.findall(r'(\w+)="([^"]*)"', m.group(1)))
+        lo, hi = items[attrs.pop("declaredType")]
+        start = f' start="{attrs["start"]}"' if "start" in attrs else ""
+        return f'<Integer min="{lo}" max="{hi}"{start}/>'
+
+    text, count = re.subn(r"<Enumeration\b([^>]*)/>", as_integer, xml_text)
+    if count != len([v for v in root.iter("ScalarVariable") if v.find("Enumeration") is not None]):
+        raise ValueError("an Enumeration variable is not written as a single empty element")
+    # Integer descriptions name the codes and end with their unit, as the repository's own do.
+    codes = {s.get("name"): ", ".join(f'{i.get("value")} {i.get("name")}' for i in s.iter("Item")) for s in root.iter("SimpleType")}
+    for sv in root.iter("ScalarVariable"):
+        enumeration = sv.find("Enumeration")
+        if enumeration is not None:
+            pattern = r'(<ScalarVariable\s+name="' + re.escape(sv.get("name")) + r'"[^>]*?description="[^"]*)(")'
+            text = re.sub(pattern, lambda m: f"{m.group(1)} (codes: {codes[enumeration.get('declaredType')]}) [1]{m.group(2)}", text, count=1, flags=re.S)
+    return re.sub(r"\s*<TypeDefinitions>.*?</TypeDefinitions>", "", text, flags=re.S)
+
+
 def entries(model_description: bytes, platforms):
     """(archive name, bytes) of every file in the FMU."""
     guid = ET.fromstring(model_description).get("guid")
@@ -166,11 +202,26 @@ def main(argv=None):
                         help=f"comma-separated FMI platforms to build and ship (default: {','.join(PLATFORMS)})")
     parser.add_argument("--parameters", type=Path, help="parameter file of aem-identify: its values become the start values")
     parser.add_argument("--module", help="module of the parameter file (when it holds several)")
+    parser.add_argument("--integer-enumerations", action="store_true",
+                        help="declare the enumerations as plain Integers (for libcosim and Ecos, which ignore enumerations)")
+    parser.add_argument("--from", dest="from_fmu", type=Path, metavar="FMU",
+                        help="with --integer-enumerations: repackage this FMU instead of building")
     args = parser.parse_args(argv)
     platforms = [p.strip() for p in args.platforms.split(",") if p.strip()]
     unknown = [p for p in platforms if p not in PLATFORMS]
     if unknown or not platforms:
         parser.error(f"--platforms: {', '.join(unknown) or 'none given'}; choose from {', '.join(PLATFORMS)}")
+    if args.from_fmu is not None:
+        if not args.integer_enumerations or args.parameters is not None:
+            parser.error("--from goes with --integer-enumerations only")
+        writable(args.out)
+        with zipfile.ZipFile(args.from_fmu) as fmu:
+            files = [(name, fmu.read(name)) for name in fmu.namelist() if not name.endswith("/")]
+        files = [(name, integer_enumerations(data.decode("utf-8")).encode("utf-8") if name == "modelDescription.xml" else data)
+                 for name, data in files]
+        write_fmu(args.out, files)
+        print(f"wrote {args.out.relative_to(ROOT) if args.out.is_relative_to(ROOT) else args.out}")
+        return
     writable(args.out)
     xml_path = ROOT / "modelDescription.xml"
     if args.parameters is None:
@@ -192,6 +243,8 @@ def main(argv=None):
         if not args.no_build:
             build_release(platforms, edited.resolve())
         model_description = text.encode("utf-8")
+    if args.integer_enumerations:
+        model_description = integer_enumerations(model_description.decode("utf-8")).encode("utf-8")
     write_fmu(args.out, list(entries(model_description, platforms)))
     if args.parameters is not None:
         print(f"start values from {args.parameters}: " + ", ".join(f"{k}={v!r}" for k, v in values.items()) + f"; GUID {guid}")

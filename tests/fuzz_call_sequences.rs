@@ -482,8 +482,13 @@ impl Harness {
                     // A hub holds its inputs over a step: it refuses a non-zero first derivative
                     // of the input that drives it.
                     let input = RealVariable::from_value_reference(*vr).filter(|v| v.causality() == Causality::Input);
-                    let drives = input.is_some_and(|v| (v == RealVariable::PowerReference) == self.view.settings.power_input);
-                    let hub_refuses = *order == 1 && *value != 0.0 && drives && !self.view.single_module();
+                    // The frequency drives the reserves, if any are offered, and is always held.
+                    let frequency = input == Some(RealVariable::Frequency);
+                    let drives = input.is_some_and(|v| match v {
+                        RealVariable::Frequency => self.view.settings.reserve.offered(),
+                        _ => (v == RealVariable::PowerReference) == self.view.settings.power_input,
+                    });
+                    let hub_refuses = *order == 1 && *value != 0.0 && drives && (frequency || !self.view.single_module());
                     let valid = self.allowed(&[Instantiated, Init, Step])
                         && input.is_some()
                         && *order >= 1

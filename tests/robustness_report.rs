@@ -202,6 +202,22 @@ fn cases() -> Vec<(&'static str, Stage, Box<dyn Fn(&Fmu) -> sys::fmi2Status>)> {
         })),
         ("nModules set after initialisation", Stepping, Box::new(|f| f.set_integer(IntegerVariable::NModules, 4))),
         ("setpoint derivative for a hub", Initialization, Box::new(|f| { f.set_integer(IntegerVariable::NModules, 4); unsafe { fmi2SetRealInputDerivatives(f.c, [0u32].as_ptr(), 1, [1].as_ptr(), &0.1) } })),
+        ("frequency = NaN", Stepping, Box::new(|f| f.set(Frequency, f64::NAN))),
+        ("fcrDUpCapacity = -1 W at initialisation", Initialization, Box::new(|f| { f.set(FcrDUpCapacity, -1.0); unsafe { fmi2ExitInitializationMode(f.c) } })),
+        ("ffrTriggerFrequency = 49.95 Hz at initialisation", Initialization, Box::new(|f| { f.set(FfrCapacity, 500.0); f.set(FfrTriggerFrequency, 49.95); unsafe { fmi2ExitInitializationMode(f.c) } })),
+        ("reserve capacity beyond the operating window at initialisation (warning)", Initialization, Box::new(|f| { f.set(FcrDUpCapacity, 5000.0); unsafe { fmi2ExitInitializationMode(f.c) } })),
+        ("reserve request beyond the operating window while stepping (warning)", Initialization, Box::new(|f| unsafe {
+            f.set(FcrDUpCapacity, 200.0);
+            f.set(Setpoint, 70.0);
+            fmi2ExitInitializationMode(f.c);
+            f.set(Setpoint, 62.0);
+            f.set(Frequency, 49.0);
+            fmi2DoStep(f.c, 0.0, 1.0, 1)
+        })),
+        ("frequency derivative with reserves offered", Initialization, Box::new(|f| unsafe {
+            f.set(FcrNCapacity, 100.0);
+            fmi2SetRealInputDerivatives(f.c, [Frequency.value_reference()].as_ptr(), 1, [1].as_ptr(), &0.01)
+        })),
         ("fmi2GetRealOutputDerivatives", Stepping, Box::new(|f| unsafe { let mut x = 0.0; fmi2GetRealOutputDerivatives(f.c, [1u32].as_ptr(), 1, [1].as_ptr(), &mut x) })),
         ("fmi2GetDirectionalDerivative", Stepping, Box::new(|f| unsafe { let mut x = 0.0; fmi2GetDirectionalDerivative(f.c, [1u32].as_ptr(), 1, [0u32].as_ptr(), 1, &1.0, &mut x) })),
         ("fmi2CancelStep", Stepping, Box::new(|f| unsafe { fmi2CancelStep(f.c) })),

@@ -2,15 +2,16 @@
 //!
 //! Serialised layout (little endian): magic "AEMFMUST", format version (u32), payload
 //! length (u32), payload, CRC-32 of everything before it (u32). The payload holds the GUID
-//! and every field of [`SavedState`] in order: flags, parameters, settings, inputs, times,
-//! the module parameter file's name and its parameter sets, then the plant (a module's state,
+//! and every field of [`SavedState`] in order: flags, parameters, settings (the reserves
+//! offered among them), inputs, times, the module parameter file's name and its parameter
+//! sets, the reserves' state (FFR's, and what was logged), then the plant (a module's state,
 //! or a hub's groups and totals). On the way back in,
 //! magic, version, length, checksum, GUID, enum codes, finiteness and the plant's
 //! consistency with its settings are all checked.
 
 use aem_model::hub::{Group, HubSnapshot, HubTotals};
 use aem_model::operation::UnitState;
-use aem_model::{CurrentState, ModuleState, OperatingState, Parameters, PlantSettings, PlantSnapshot};
+use aem_model::{CurrentState, FastReserve, ModuleState, OperatingState, Parameters, PlantSettings, PlantSnapshot, ReserveSettings};
 use crate::model_description::GUID;
 
 use super::state_machine::FmiState;
@@ -19,11 +20,22 @@ use super::variables::Inputs;
 /// The first bytes of every serialised state.
 pub const MAGIC: &[u8; 8] = b"AEMFMUST";
 /// Version of the serialised format; bump it whenever the payload changes.
-pub const FORMAT_VERSION: u32 = 5;
+pub const FORMAT_VERSION: u32 = 6;
 const SAVED_MAGIC: u64 = 0x4145_4d5f_5354_4154; // "AEM_STAT"
 const PLANT_NONE: u8 = 0;
 const PLANT_MODULE: u8 = 1;
 const PLANT_HUB: u8 = 2;
+
+/// The reserves' state between steps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReserveState {
+    /// FFR's state.
+    pub fast: FastReserve,
+    /// Whether the window keeps the hub short of the request (logged once).
+    pub shortfall: bool,
+    /// Whether the request asks for more draw (logged once).
+    pub increase: bool,
+}
 
 /// A complete copy of an instance's state.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,6 +62,8 @@ pub struct SavedState {
     pub module_parameter_file: String,
     /// The per-module parameter sets read from it at initialisation.
     pub module_sets: Option<Vec<Parameters>>,
+    /// The reserves' state.
+    pub reserve: ReserveState,
     /// The plant's state, once initialised.
     pub plant: Option<PlantSnapshot>,
 }
@@ -68,6 +82,7 @@ impl SavedState {
         stop_time: Option<f64>,
         module_parameter_file: String,
         module_sets: Option<Vec<Parameters>>,
+        reserve: ReserveState,
         plant: Option<PlantSnapshot>,
     ) -> Self {
         SavedState {
@@ -82,6 +97,7 @@ impl SavedState {
             stop_time,
             module_parameter_file,
             module_sets,
+            reserve,
             plant,
         }
     }
@@ -128,7 +144,19 @@ impl SavedState {
         ] {
             w.f64(x);
         }
-        for x in [self.inputs.setpoint, self.inputs.power_reference, self.setpoint_slope, self.time, self.stop_time.unwrap_or(0.0)] {
+        let r = &s.reserve;
+        for x in [r.fcr_n, r.fcr_d_up, r.fcr_d_down, r.fcr, r.ffr, r.ffr_trigger, r.ffr_duration] {
+            w.f64(x);
+        }
+        w.u8(r.compensation as u8);
+        for x in [
+            self.inputs.setpoint,
+            self.inputs.power_reference,
+            self.inputs.frequency,
+            self.setpoint_slope,
+            self.time,
+            self.stop_time.unwrap_or(0.0),
+        ] {
             w.f64(x);
         }
         w.u32(self.module_parameter_file.len() as u32);
@@ -141,6 +169,15 @@ impl SavedState {
                 w.f64(x);
             }
         }
+        let (code, until) = match self.reserve.fast {
+            FastReserve::Armed => (0, 0.0),
+            FastReserve::Active { until } => (1, until),
+            FastReserve::Spent => (2, 0.0),
+        };
+        w.u8(code);
+        w.f64(until);
+        w.u8(self.reserve.shortfall as u8);
+        w.u8(self.reserve.increase as u8);
         match &self.plant {
             None => w.u8(PLANT_NONE),
             Some(PlantSnapshot::Module(m)) => {
@@ -228,8 +265,18 @@ impl SavedState {
             stop_duration: x[6],
             parameter_spread: x[7],
             spread_seed,
+            reserve: ReserveSettings {
+                fcr_n: r.finite()?,
+                fcr_d_up: r.finite()?,
+                fcr_d_down: r.finite()?,
+                fcr: r.finite()?,
+                ffr: r.finite()?,
+                ffr_trigger: r.finite()?,
+                ffr_duration: r.finite()?,
+                compensation: r.flag()?,
+            },
         };
-        let inputs = Inputs { setpoint: r.finite()?, power_reference: r.finite()? };
+        let inputs = Inputs { setpoint: r.finite()?, power_reference: r.finite()?, frequency: r.finite()? };
         let (setpoint_slope, time, stop) = (r.finite()?, r.finite()?, r.finite()?);
         let path_len = r.u32()? as usize;
         let module_parameter_file =
@@ -244,6 +291,14 @@ impl SavedState {
             sets.push(read_parameters(&mut r)?);
         }
         let module_sets = has_sets.then_some(sets);
+        let (code, until) = (r.u8()?, r.finite()?);
+        let fast = match code {
+            0 => FastReserve::Armed,
+            1 => FastReserve::Active { until },
+            2 => FastReserve::Spent,
+            other => return Err(format!("serialised state has an unknown FFR state {other}")),
+        };
+        let reserve = ReserveState { fast, shortfall: r.flag()?, increase: r.flag()? };
         let plant = match r.u8()? {
             PLANT_NONE => None,
             PLANT_MODULE => {
@@ -278,6 +333,7 @@ impl SavedState {
             stop_time,
             module_parameter_file,
             module_sets,
+            reserve,
             plant,
         ))
     }
@@ -414,6 +470,9 @@ impl<'a> Reader<'a> {
 mod tests {
     use super::*;
 
+    /// FFR active until 130 s, a shortfall logged.
+    const RESERVE: ReserveState = ReserveState { fast: FastReserve::Active { until: 130.0 }, shortfall: true, increase: false };
+
     fn sample() -> SavedState {
         let module = ModuleState {
             time: 12.5,
@@ -421,23 +480,24 @@ mod tests {
             energy: 1.0e6,
             h2_produced: 33.0,
         };
-        let inputs = Inputs { setpoint: 73.0, power_reference: 1.5e6 };
+        let inputs = Inputs { setpoint: 73.0, power_reference: 1.5e6, frequency: 49.8 };
         let plant = Some(PlantSnapshot::Module(module));
         let settings = PlantSettings::default();
-        SavedState::new(FmiState::StepComplete, Parameters::default(), settings, inputs, -0.25, false, 112.5, Some(3600.0), String::new(), None, plant)
+        SavedState::new(FmiState::StepComplete, Parameters::default(), settings, inputs, -0.25, false, 112.5, Some(3600.0), String::new(), None, RESERVE, plant)
     }
 
     fn hub_sample() -> SavedState {
-        let settings = PlantSettings { n_modules: 10, dispatch: 2, below_minimum: 1, power_input: true, ..PlantSettings::default() };
+        let reserve = aem_model::ReserveSettings { fcr_d_up: 5_000.0, ffr: 2_000.0, compensation: true, ..Default::default() };
+        let settings = PlantSettings { n_modules: 10, dispatch: 2, below_minimum: 1, power_input: true, reserve, ..PlantSettings::default() };
         let config = settings.config().unwrap();
         let sets = vec![Parameters::default(), Parameters { gain: 0.5, ..Parameters::default() }];
         let mut plant = aem_model::Plant::new(Parameters::default(), &config, Some(&sets), 0.0, 12_000.0).unwrap();
         for k in 0..400 {
             plant.step(&config, 0.0, 0.0, if k < 100 { 3_000.0 } else { 20_000.0 }, 1.0).unwrap();
         }
-        let inputs = Inputs { setpoint: 0.0, power_reference: 20_000.0 };
+        let inputs = Inputs { setpoint: 0.0, power_reference: 20_000.0, frequency: 50.0 };
         let file = "/data/params.json".to_string();
-        SavedState::new(FmiState::StepComplete, Parameters::default(), settings, inputs, 0.0, false, 400.0, None, file, Some(sets), Some(plant.snapshot()))
+        SavedState::new(FmiState::StepComplete, Parameters::default(), settings, inputs, 0.0, false, 400.0, None, file, Some(sets), RESERVE, Some(plant.snapshot()))
     }
 
     #[test]

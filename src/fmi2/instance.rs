@@ -8,11 +8,11 @@ use std::ffi::{c_char, CString};
 use std::path::PathBuf;
 
 use aem_model::parameter_file::ParameterFile;
-use aem_model::{shown, Parameters, Plant, PlantConfig, PlantSettings};
+use aem_model::{shown, FrequencyResponse, Parameters, Plant, PlantConfig, PlantSettings, ReserveStep};
 use crate::model_description::{BooleanVariable, Causality, IntegerVariable, RealVariable, StringVariable};
 
 use super::file_location::{locate, Os};
-use super::fmu_state::SavedState;
+use super::fmu_state::{ReserveState, SavedState};
 use super::logger::{Logger, LOG_EVENTS};
 use super::state_machine::FmiState;
 use super::status::{discard, error, CallResult, Status};
@@ -27,6 +27,20 @@ const TIME_TOLERANCE: f64 = 1e-9;
 
 /// Relative distance outside the setpoint window below which no warning is logged.
 const WINDOW_TOLERANCE: f64 = 1e-9;
+
+/// A power for messages, to four significant digits: 1042.66 W, 12.40 kW, 59.87 MW.
+fn watts(x: f64) -> String {
+    let (value, unit) = match x.abs() {
+        a if a >= 1e6 => (x / 1e6, "MW"),
+        a if a >= 1e3 => (x / 1e3, "kW"),
+        _ => (x, "W"),
+    };
+    let decimals = if value.abs() >= 100.0 { 1 } else if value.abs() >= 10.0 { 2 } else { 3 };
+    format!("{value:.decimals$} {unit}")
+}
+
+/// Shortfall of a reserve request, relative to the hub's largest power, below which none is logged.
+const RESERVE_TOLERANCE: f64 = 1e-9;
 
 const INSTANCE_MAGIC: u64 = 0x4145_4d5f_494e_5354; // "AEM_INST"
 
@@ -45,6 +59,12 @@ pub struct Instance {
     /// d(setpoint)/dt for the next step [%/s], from fmi2SetRealInputDerivatives.
     setpoint_slope: f64,
     excursion: bool,
+    /// The reserves' controller (FFR's state), from the settings at initialisation.
+    response: FrequencyResponse,
+    /// Whether the window keeps the hub from delivering the reserves' request (logged once).
+    reserve_shortfall: bool,
+    /// Whether the reserves ask for more draw, which the ramp limit slows (logged once).
+    reserve_increase: bool,
     time: f64,
     /// stopTime of fmi2SetupExperiment, if defined: steps past it are refused [s].
     stop_time: Option<f64>,
@@ -76,6 +96,9 @@ impl Instance {
             inputs,
             setpoint_slope: 0.0,
             excursion: false,
+            response: FrequencyResponse::new(settings.reserve),
+            reserve_shortfall: false,
+            reserve_increase: false,
             time: 0.0,
             stop_time: None,
             module_parameter_file: String::new(),
@@ -151,8 +174,9 @@ impl Instance {
     fn build_plant(&self) -> Result<(PlantConfig, Plant, Option<Vec<Parameters>>), String> {
         let config = self.settings.config().map_err(|e| e.to_string())?;
         let sets = self.read_module_sets()?;
-        let plant = Plant::new(self.params, &config, sets.as_deref(), self.inputs.setpoint, self.inputs.power_reference)
-            .map_err(|e| e.to_string())?;
+        let request = config.reserve.proportional(self.inputs.frequency);
+        let (setpoint, power) = (self.inputs.setpoint, self.inputs.power_reference);
+        let plant = Plant::with_request(self.params, &config, sets.as_deref(), setpoint, power, request).map_err(|e| e.to_string())?;
         Ok((config, plant, sets))
     }
 
@@ -180,10 +204,15 @@ impl Instance {
             ),
         );
         let slope_dropped = !plant.takes_setpoint_slope() && self.setpoint_slope != 0.0;
+        let capacity_warned = self.warn_capacities_beyond_the_window(&config, &plant);
+        self.response = FrequencyResponse::new(config.reserve);
+        self.reserve_shortfall = false;
+        self.reserve_increase = false;
         self.module_sets = sets;
         self.plant = Some((config, plant));
         self.state = FmiState::StepComplete;
-        let status = self.update_excursion();
+        let window = self.update_excursion();
+        let status = if capacity_warned { Status::Warning } else { window };
         if slope_dropped {
             // Set while the settings still described a single module.
             self.logger.warning(&format!(
@@ -194,6 +223,90 @@ impl Instance {
             return Ok(Status::Warning);
         }
         Ok(status)
+    }
+
+    /// Warns, naming the shortfall, where the reserves offered together ask for more than the
+    /// operating window allows at the initial operating point. True if it warned.
+    fn warn_capacities_beyond_the_window(&mut self, config: &PlantConfig, plant: &Plant) -> bool {
+        let r = &config.reserve;
+        let (setpoint, power) = (self.inputs.setpoint, self.inputs.power_reference);
+        let mut warned = false;
+        let down = [("fcrNCapacity", r.fcr_n), ("fcrDUpCapacity", r.fcr_d_up), ("fcrCapacity", r.fcr), ("ffrCapacity", r.ffr)];
+        let up = [("fcrNCapacity", r.fcr_n), ("fcrDDownCapacity", r.fcr_d_down), ("fcrCapacity", r.fcr)];
+        for (products, sign, direction) in [(&down[..], -1.0, "less"), (&up[..], 1.0, "more")] {
+            let offered: f64 = products.iter().map(|(_, c)| c).sum();
+            let names: Vec<&str> = products.iter().filter(|(_, c)| *c > 0.0).map(|(n, _)| *n).collect();
+            if offered <= 0.0 {
+                continue;
+            }
+            let step = plant.reserve_step(config, setpoint, power, sign * offered);
+            if step.shortfall.abs() > RESERVE_TOLERANCE * step.range.1.max(1.0) {
+                let (lo, hi) = step.range;
+                self.logger.warning(&format!(
+                    "{} = {} asks the hub to draw up to that much {direction} than {} at the initial operating point; the \
+                     operating window ({} to {}) allows {} of it: {} short",
+                    names.join(" + "),
+                    watts(offered),
+                    watts(step.baseline),
+                    watts(lo),
+                    watts(hi),
+                    watts(offered - step.shortfall.abs()),
+                    watts(step.shortfall.abs())
+                ));
+                warned = true;
+            }
+        }
+        warned
+    }
+
+    /// What the reserves ask for at the frequency now [W]: the request of a step begun now
+    /// (FFR counted if the frequency is at its trigger). 0 before initialisation.
+    fn reserve_request(&self) -> f64 {
+        let mut response = self.response;
+        if self.plant.is_none() {
+            response = FrequencyResponse::new(self.settings.reserve);
+        }
+        response.end_due(self.time);
+        response.begin_step(self.time, self.inputs.frequency);
+        response.request(self.inputs.frequency)
+    }
+
+    /// Logs, once per excursion, where the window keeps the hub from delivering the request
+    /// and where an increase of draw is slowed by the rising-current limit.
+    fn log_reserve_step(&mut self, step: &ReserveStep) -> Status {
+        let mut status = Status::Ok;
+        let short = step.shortfall.abs() > RESERVE_TOLERANCE * step.range.1.max(1.0);
+        if short && !self.reserve_shortfall {
+            let (lo, hi) = step.range;
+            self.logger.warning(&format!(
+                "frequency = {} Hz: reserveRequest = {} on {}; the operating window ({} to {}) keeps the hub {} short \
+                 until the request fits again",
+                self.inputs.frequency,
+                watts(step.request),
+                watts(step.baseline),
+                watts(lo),
+                watts(hi),
+                watts(step.shortfall.abs())
+            ));
+            status = Status::Warning;
+        }
+        if !short && self.reserve_shortfall {
+            self.logger.info(LOG_EVENTS, &format!("frequency = {} Hz: the reserve request fits the operating window again", self.inputs.frequency));
+        }
+        self.reserve_shortfall = short;
+        let increase = step.request > 0.0;
+        if increase && !self.reserve_increase {
+            let rate = self.params.ramp_up_limit;
+            self.logger.warning(&format!(
+                "frequency = {} Hz asks the hub to draw {} more: each module's current rises at most rampUpLimit = {rate} A/s, \
+                 so the increase follows that ramp",
+                self.inputs.frequency,
+                watts(step.request)
+            ));
+            status = Status::Warning;
+        }
+        self.reserve_increase = increase;
+        status
     }
 
     /// fmi2Terminate.
@@ -224,7 +337,10 @@ impl Instance {
     /// The value of one Real variable.
     fn real(&self, var: RealVariable) -> Result<f64, String> {
         let value = match var.causality() {
-            Causality::Output => self.with_plant(var.name(), |plant| real_output(var, plant))?,
+            Causality::Output => {
+                let request = self.reserve_request();
+                self.with_plant(var.name(), |plant| real_output(var, plant, request))?
+            }
             Causality::Input => {
                 let mut inputs = self.inputs;
                 real_input_mut(&mut inputs, var).map(|v| *v)
@@ -391,10 +507,18 @@ impl Instance {
             }
             let drives = match var {
                 RealVariable::PowerReference => power_input,
+                RealVariable::Frequency => self.settings.reserve.offered(),
                 _ => !power_input,
             };
             match (var, *order) {
                 (RealVariable::Setpoint, 1) if single => slope = *value,
+                (RealVariable::Frequency, 1) if drives && *value != 0.0 => {
+                    return Err(error(format!(
+                        "d(frequency)/dt = {} refused: the frequency is held over a step (the reserves' request is constant \
+                         over it, FFR's end aside)",
+                        shown(*value)
+                    )))
+                }
                 (_, 1) if drives && *value != 0.0 => {
                     return Err(error(format!(
                         "d({})/dt = {} refused: a hub holds its inputs over a step; only a single module (nModules = 1, \
@@ -497,14 +621,31 @@ impl Instance {
             return Err(error("the instance is not initialised"));
         };
         // The setpoint is u(t) = setpoint + slope·(t − t_c) over this step (slope 0 unless the
-        // master set a derivative at this communication point); the power reference is held.
-        plant
-            .step(config, self.inputs.setpoint, self.setpoint_slope, self.inputs.power_reference, h)
+        // master set a derivative at this communication point); the power reference and the
+        // frequency are held.
+        let inputs = self.inputs;
+        let mut response = self.response;
+        let step = plant
+            .step_with_reserves(
+                config,
+                &mut response,
+                inputs.setpoint,
+                self.setpoint_slope,
+                inputs.power_reference,
+                inputs.frequency,
+                self.time,
+                h,
+            )
             .map_err(|e| error(e.to_string()))?;
+        let offered = config.reserve.offered();
+        self.response = response;
         // Resynchronise to the master's clock: whether it sums its steps or computes t0 + n·h,
         // the FMU's time never drifts away from it.
         self.time = communication_point + h;
         self.setpoint_slope = 0.0;
+        if offered {
+            return Ok(self.log_reserve_step(&step));
+        }
         Ok(Status::Ok)
     }
 
@@ -526,6 +667,7 @@ impl Instance {
             self.stop_time,
             self.module_parameter_file.clone(),
             self.module_sets.clone(),
+            ReserveState { fast: self.response.fast, shortfall: self.reserve_shortfall, increase: self.reserve_increase },
             self.plant.as_ref().map(|(_, plant)| plant.snapshot()),
         )
     }
@@ -555,6 +697,9 @@ impl Instance {
         self.inputs = saved.inputs;
         self.setpoint_slope = saved.setpoint_slope;
         self.excursion = saved.excursion;
+        self.response = FrequencyResponse { settings: saved.settings.reserve, fast: saved.reserve.fast };
+        self.reserve_shortfall = saved.reserve.shortfall;
+        self.reserve_increase = saved.reserve.increase;
         self.time = saved.time;
         self.stop_time = saved.stop_time;
         self.module_parameter_file = saved.module_parameter_file.clone();

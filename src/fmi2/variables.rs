@@ -13,12 +13,14 @@ pub struct Inputs {
     pub setpoint: f64,
     /// `powerReference` [W].
     pub power_reference: f64,
+    /// `frequency` [Hz].
+    pub frequency: f64,
 }
 
 impl Default for Inputs {
     fn default() -> Self {
         use crate::model_description::start;
-        Inputs { setpoint: start::SETPOINT, power_reference: start::POWER_REFERENCE }
+        Inputs { setpoint: start::SETPOINT, power_reference: start::POWER_REFERENCE, frequency: start::FREQUENCY }
     }
 }
 
@@ -71,7 +73,9 @@ pub fn module_parameter(var: RealVariable) -> Option<ModuleParameter> {
         MaxSetpoint => Some(P::MaxSetpoint),
         Hysteresis | ColdStartTime | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration
         | ParameterSpread | Setpoint | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced
-        | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts => None,
+        | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts | Frequency
+        | ReserveRequest | FcrNCapacity | FcrDUpCapacity | FcrDDownCapacity | FcrCapacity | FfrCapacity
+        | FfrTriggerFrequency | FfrSupportDuration => None,
     }
 }
 
@@ -87,9 +91,17 @@ fn setting_mut(settings: &mut PlantSettings, var: RealVariable) -> Option<&mut f
         StandbyDuration => Some(&mut settings.standby_duration),
         StopDuration => Some(&mut settings.stop_duration),
         ParameterSpread => Some(&mut settings.parameter_spread),
+        FcrNCapacity => Some(&mut settings.reserve.fcr_n),
+        FcrDUpCapacity => Some(&mut settings.reserve.fcr_d_up),
+        FcrDDownCapacity => Some(&mut settings.reserve.fcr_d_down),
+        FcrCapacity => Some(&mut settings.reserve.fcr),
+        FfrCapacity => Some(&mut settings.reserve.ffr),
+        FfrTriggerFrequency => Some(&mut settings.reserve.ffr_trigger),
+        FfrSupportDuration => Some(&mut settings.reserve.ffr_duration),
         Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance | H2Coefficient
         | NominalCurrent | MinSetpoint | MaxSetpoint | Setpoint | PowerReference | Current | Voltage | Power | H2Flow
-        | Energy | H2Produced | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts => None,
+        | Energy | H2Produced | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts
+        | Frequency | ReserveRequest => None,
     }
 }
 
@@ -99,15 +111,19 @@ pub fn real_input_mut(inputs: &mut Inputs, var: RealVariable) -> Option<&mut f64
     match var {
         Setpoint => Some(&mut inputs.setpoint),
         PowerReference => Some(&mut inputs.power_reference),
+        Frequency => Some(&mut inputs.frequency),
         Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy
         | HubH2Produced | RunningHours | Starts | Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept
         | OhmicResistance | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Hysteresis | ColdStartTime
-        | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration | ParameterSpread => None,
+        | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration | ParameterSpread | ReserveRequest
+        | FcrNCapacity | FcrDUpCapacity | FcrDDownCapacity | FcrCapacity | FfrCapacity | FfrTriggerFrequency
+        | FfrSupportDuration => None,
     }
 }
 
-/// The value of Real output `var` of `plant`, or None if `var` is not an output.
-pub fn real_output(var: RealVariable, plant: &Plant) -> Option<f64> {
+/// The value of Real output `var` of `plant`, or None if `var` is not an output;
+/// `reserve_request` [W] is what the reserves ask for now (it depends on the inputs).
+pub fn real_output(var: RealVariable, plant: &Plant, reserve_request: f64) -> Option<f64> {
     use RealVariable::*;
     match var {
         Current => Some(plant.current()),
@@ -123,9 +139,12 @@ pub fn real_output(var: RealVariable, plant: &Plant) -> Option<f64> {
         HubH2Produced => Some(plant.hub_h2_produced()),
         RunningHours => Some(plant.running_hours()),
         Starts => Some(plant.starts()),
+        ReserveRequest => Some(reserve_request),
         Setpoint | PowerReference | Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept
         | OhmicResistance | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Hysteresis | ColdStartTime
-        | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration | ParameterSpread => None,
+        | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration | ParameterSpread | Frequency
+        | FcrNCapacity | FcrDUpCapacity | FcrDDownCapacity | FcrCapacity | FfrCapacity | FfrTriggerFrequency
+        | FfrSupportDuration => None,
     }
 }
 
@@ -166,6 +185,7 @@ pub fn item_name(var: IntegerVariable, value: i32) -> &'static str {
 pub fn boolean_parameter_mut(settings: &mut PlantSettings, var: BooleanVariable) -> Option<&mut bool> {
     match var {
         BooleanVariable::PowerInput => Some(&mut settings.power_input),
+        BooleanVariable::ReserveCompensation => Some(&mut settings.reserve.compensation),
     }
 }
 
@@ -246,7 +266,7 @@ mod tests {
             let (mut p, mut s, mut i) = (params, defaults, inputs);
             let param = real_parameter_mut(&mut p, &mut s, var).map(|v| *v);
             assert_eq!(param.is_some(), var.causality() == Causality::Parameter, "{var:?}");
-            assert_eq!(real_output(var, &plant).is_some(), var.causality() == Causality::Output, "{var:?}");
+            assert_eq!(real_output(var, &plant, 0.0).is_some(), var.causality() == Causality::Output, "{var:?}");
             let input = real_input_mut(&mut i, var).map(|v| *v);
             assert_eq!(input.is_some(), var.causality() == Causality::Input, "{var:?}");
             if var.causality() != Causality::Output {

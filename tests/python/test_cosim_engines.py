@@ -8,8 +8,15 @@ The communication step is 0.5 s, a binary fraction: libcosim keeps time in integ
 and passes h = t(n+1) - t(n), which for a step like 0.1 s differs from 0.1 by an ulp now and
 then (results then agree to about 1e-14, not bit for bit). Both engines set no stopTime and write
 the inputs in initialisation mode; the FMU gives the same results either way.
-OMSimulator is not among them: its PyPI package downloads its binaries while it installs."""
+OMSimulator is not among them: its PyPI package downloads its binaries while it installs.
+
+Neither engine reads FMI enumerations (libcosim ignores them with a warning, Ecos has no
+property for them), so the hubs' dispatch is set through the FMU packaged with
+--integer-enumerations: the same binary, the enumerations declared as Integers."""
 import csv
+import subprocess
+import sys
+import zipfile
 
 import numpy as np
 import pytest
@@ -82,6 +89,33 @@ def assert_bits(got, want, what):
 
 
 @pytest.fixture(scope="module")
+def integer_fmu(fmu_path, tmp_path_factory):
+    """The packaged binary with the enumerations declared as Integers."""
+    out = tmp_path_factory.mktemp("integer") / "AemElectrolyser.fmu"
+    subprocess.run([sys.executable, str(ROOT / "packaging" / "package.py"), "--integer-enumerations", "--from", str(fmu_path),
+                    "--out", str(out)], check=True, capture_output=True, timeout=120)
+    return out
+
+
+def test_the_engines_see_no_enumeration_but_its_integer_declaration(fmu_path, integer_fmu):
+    """libcosim lists the integer FMU's dispatch (and accepts a value for it) but not the
+    enumeration FMU's; both FMUs carry the same binary."""
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimSlave import CosimLocalSlave
+
+    def names(path):
+        execution = CosimExecution.from_step_size(step_size=round(STEP * NS))
+        execution.add_local_slave(local_slave=CosimLocalSlave(fmu_path=str(path), instance_name="probe"))
+        return {v.name.decode() for v in execution.slave_variables(0)}
+
+    plain, integer = names(fmu_path), names(integer_fmu)
+    assert {"dispatch", "belowMinimum", "operatingState"} <= integer - plain
+    with zipfile.ZipFile(fmu_path) as a, zipfile.ZipFile(integer_fmu) as b:
+        library = "binaries/linux64/AemElectrolyser.so"
+        assert a.read(library) == b.read(library)
+
+
+@pytest.fixture(scope="module")
 def reference(fmu_path):
     return fmpy_run(fmu_path, {}, read_schedule(), 1500.0)
 
@@ -139,9 +173,9 @@ def test_libcosim_gives_fmpys_bits(libcosim, fmu_path, reference):
     assert_bits(result, reference[1:], "libcosim vs fmpy")
 
 
-def test_64_instances_in_one_libcosim_execution_each_as_if_alone(libcosim, fmu_path):
+def test_64_instances_in_one_libcosim_execution_each_as_if_alone(libcosim, fmu_path, integer_fmu):
     instances = fleet()
-    results = libcosim_execution(fmu_path, instances, FLEET_STOP, SAMPLE_EVERY)
+    results = libcosim_execution(integer_fmu, instances, FLEET_STOP, SAMPLE_EVERY)
     for name, integers, schedule in instances:
         alone = fmpy_run(fmu_path, integers, schedule, FLEET_STOP, SAMPLE_EVERY)
         assert_bits(results[name], alone[1:], f"{name} in libcosim vs alone")
@@ -190,9 +224,9 @@ def test_ecos_gives_fmpys_bits(ecos, fmu_path, reference):
     assert_bits(result, reference, "Ecos vs fmpy")
 
 
-def test_64_instances_in_one_ecos_simulation_each_as_if_alone(ecos, fmu_path):
+def test_64_instances_in_one_ecos_simulation_each_as_if_alone(ecos, fmu_path, integer_fmu):
     instances = fleet()
-    results = ecos_simulation(ecos, fmu_path, instances, FLEET_STOP, SAMPLE_EVERY)
+    results = ecos_simulation(ecos, integer_fmu, instances, FLEET_STOP, SAMPLE_EVERY)
     for name, integers, schedule in instances:
         alone = fmpy_run(fmu_path, integers, schedule, FLEET_STOP, SAMPLE_EVERY)
         assert_bits(results[name], alone, f"{name} in Ecos vs alone")
