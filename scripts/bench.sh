@@ -16,3 +16,6 @@ echo "== the NREL electrolyzer package (PyPI) as peer, against the equal hub thr
 bash bench/nrel_bench.sh
 echo "== aem-identify against its Python/SciPy peer"
 bash bench/identify_bench.sh
+echo "== prequalification of the 25 000-module hub: every product, plain and compensated, with bisection"
+.venv/bin/python -m reserves.prequalify --modules 25000 --dispatch equal --baseline 80 --compensation both \
+  --no-plots --out target/bench/prequalification | tail -1
