@@ -1,0 +1,369 @@
+"""The HELICS federation of frameworks/helics: a broker and the wind, hub and grid federates as
+separate processes over zmq on 127.0.0.1, each test with its own ports and broker key.
+
+* Ten simulated minutes (the 25 000-module hub, 1 s steps) run through `helics run` with the
+  runner file, in bounded time, and every value a federate received is one another published,
+  at the time HELICS's rules give: a federate that does not wait for the others at a time (wind,
+  hub) gets a value published at t at its next grant, t + 1 s; the grid, which waits
+  (wait_for_current_time_update), gets it at t; the hub gets w(0) from the wind's
+  initializing mode at t = 0.
+* The hub's outputs are, bit for bit, those of the FMU driven alone through fmpy with the same
+  reference held over the same steps; the grid's, those of load flows run here without HELICS.
+* A federate that raises, a federate or the broker killed with SIGKILL, a step that hangs, a
+  federate that never comes and a wall-clock limit reached each end every other process within
+  bounded time with a non-zero status and a message naming what happened.
+
+Expected values come from the FMU alone, the wind series recomputed, the FMU's model description
+read with ElementTree, pandapower run here and HELICS's exchange rules; none from the federates.
+"""
+import json
+import os
+import random
+import shlex
+import signal
+import socket
+import subprocess
+import sys
+import time
+import uuid
+import xml.etree.ElementTree as ET
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+HELICS_DIR = ROOT / "frameworks" / "helics"
+sys.path[:0] = [str(HELICS_DIR), str(ROOT / "examples")]
+import pandapower as pp  # noqa: E402
+import pandapower.networks as pn  # noqa: E402
+from hub_fmu import HubFMU  # noqa: E402
+from records import read  # noqa: E402
+from wind_farm import farm_power  # noqa: E402
+
+BIN = Path(sys.executable).parent
+DURATION, SEED, N_MODULES = 600, 1, 25_000
+FEDERATES = ("wind", "hub", "grid")
+HUB_OUTPUTS = ["hubPower", "hubEnergy", "hubH2Produced", "hubH2MassFlow"]
+STALL = 5  # s, --stall-timeout of the failure tests
+BOUND = 30  # s within which every process must have ended after a failure
+LIMIT = "1800s"  # the runner file's --maxcosimduration
+
+
+def free_ports(n=12):
+    """A first port p with p .. p+n-1 free on 127.0.0.1 (the broker takes p and p+1, zmq cores p+5 on)."""
+    for _ in range(200):
+        p = random.randrange(20000, 40000)
+        socks = []
+        try:
+            for q in range(p, p + n):
+                s = socket.socket()
+                socks.append(s)
+                s.bind(("127.0.0.1", q))
+            return p
+        except OSError:
+            continue
+        finally:
+            for s in socks:
+                s.close()
+    pytest.fail("no free block of ports on 127.0.0.1")
+
+
+def table(path):
+    """{column header: array} of a record."""
+    header, rows = read(path)
+    data = np.array(rows, dtype=float).reshape(len(rows), len(header))
+    return {h: data[:, i] for i, h in enumerate(header)}
+
+
+def commands(out, port, key, fmu, duration=DURATION, common=(), broker=(), **extra):
+    """The broker's and the federates' command lines, as federation.json has them but with this
+    test's port, key, horizon and output folder."""
+    runner = json.loads((HELICS_DIR / "federation.json").read_text())
+    cmds = {}
+    for f in runner["federates"]:
+        args = shlex.split(f["exec"])
+        args = [a.replace("23404", str(port)).replace("--duration=3600", f"--duration={duration}")
+                .replace(f"--maxcosimduration={LIMIT}", "--maxcosimduration=300s") for a in args]
+        args += [f"--brokerkey={key}"]
+        if f["name"] == "broker":
+            args += ["--wall-limit=330", *broker]
+        else:  # a test that fails leaves nothing running for long
+            args += [f"--out={out}", "--wall-limit=300", *common, *extra.get(f["name"], ())]
+            if f["name"] == "hub":
+                args += [f"--fmu={fmu}"]
+        assert args[0] == "python"
+        cmds[f["name"]] = [sys.executable, *args[1:]]
+    return cmds
+
+
+class Federation:
+    """The processes of one federation, started directly (not through the runner), stdout and
+    stderr in files; every wait is bounded and whatever is left is killed at the end."""
+
+    def __init__(self, tmp, fmu, names=("broker", *FEDERATES), programs=None, **kw):
+        self.tmp, self.out = tmp, tmp / "out"
+        self.cmds = commands(self.out, free_ports(), f"test-{uuid.uuid4().hex}", fmu, **kw)
+        for name, program in (programs or {}).items():
+            self.cmds[name][1] = str(program)
+        self.procs = {}
+        for name in names:
+            with open(tmp / f"{name}.out", "w") as o, open(tmp / f"{name}.err", "w") as e:
+                self.procs[name] = subprocess.Popen(self.cmds[name], cwd=HELICS_DIR, stdout=o, stderr=e)
+
+    def wait_for_rows(self, record, rows, timeout=60):
+        path, end = self.out / record, time.monotonic() + timeout
+        while time.monotonic() < end:
+            if path.exists() and len(path.read_text().splitlines()) > rows:
+                return
+            time.sleep(0.02)
+        pytest.fail(f"{record} has not {rows} rows after {timeout} s")
+
+    def wait(self, timeout):
+        """{name: exit status}, all processes ended within timeout [s] or the test fails."""
+        end = time.monotonic() + timeout
+        status = {}
+        for name, p in self.procs.items():
+            try:
+                status[name] = p.wait(timeout=max(0.1, end - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                pass
+        hung = [n for n in self.procs if n not in status]
+        assert not hung, f"{hung} still running {timeout} s later"
+        return status
+
+    def stderr(self, name):
+        return (self.tmp / f"{name}.err").read_text()
+
+    def last_line(self, name):
+        return self.stderr(name).strip().splitlines()[-1]
+
+    def close(self):
+        for p in self.procs.values():
+            if p.poll() is None:
+                p.kill()
+                p.wait(timeout=10)
+
+
+@pytest.fixture
+def federation(tmp_path, fmu_path):
+    made = []
+
+    def start(**kw):
+        f = Federation(tmp_path, fmu_path, **kw)
+        made.append(f)
+        return f
+
+    yield start
+    for f in made:
+        f.close()
+
+
+# --- ten simulated minutes through `helics run` ------------------------------------------------
+
+@pytest.fixture(scope="module")
+def ten_minutes(fmu_path, tmp_path_factory):
+    """Runs the runner file with this test's port, key, horizon and folders; (records, wall [s])."""
+    tmp = tmp_path_factory.mktemp("helics")
+    runner = json.loads((HELICS_DIR / "federation.json").read_text())
+    cmds = commands(tmp / "out", free_ports(), f"test-{uuid.uuid4().hex}", fmu_path)
+    for f in runner["federates"]:
+        f["directory"] = str(HELICS_DIR)
+        f["exec"] = shlex.join(["python", *cmds[f["name"]][1:]])
+    path = tmp / "federation.json"
+    path.write_text(json.dumps(runner, indent=2))
+    env = {**os.environ, "PATH": f"{BIN}{os.pathsep}{os.environ['PATH']}"}
+    start = time.monotonic()
+    runner = subprocess.Popen([str(BIN / "helics"), "run", f"--path={path}", "--no-kill-on-error"], cwd=tmp,
+                              env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                              start_new_session=True)  # its own process group: the runner and what it started
+    try:
+        output, _ = runner.communicate(timeout=300)
+    except subprocess.TimeoutExpired:
+        os.killpg(runner.pid, signal.SIGKILL)
+        output, _ = runner.communicate()
+    wall = time.monotonic() - start
+    logs = {name: (tmp / f"{name}.log").read_text() for name in ("broker", *FEDERATES)}
+    assert runner.returncode == 0, output + "\n".join(logs.values())
+    records = {f"{n}_{kind}": table(tmp / "out" / f"{n}_{kind}.csv")
+               for n in FEDERATES for kind in ("published", "received")}
+    return records, logs, wall
+
+
+def test_ten_minutes_run_in_bounded_time(ten_minutes):
+    records, logs, wall = ten_minutes
+    assert wall < 120, wall  # about 16 s on two cores with nothing else running
+    assert "the federation ended normally" in logs["broker"]
+    for name in FEDERATES:
+        assert f"{name}: {DURATION} s simulated in" in logs[name]
+        assert "error" not in logs[name].lower(), logs[name]
+    for name, r in records.items():
+        assert np.array_equal(r["time [s]"], np.arange(DURATION + 1.0)), name
+        assert all(h.endswith(("[s]", "[W]", "[J]", "[kg]", "[kg/h]", "[pu]")) for h in r), list(r)
+
+
+def test_every_value_received_was_published_at_the_time_helics_gives(ten_minutes):
+    r = ten_minutes[0]
+    wind = r["wind_published"]["wind/power [W]"]
+    hub = r["hub_published"]["hub/hubPower [W]"]
+    voltage = r["grid_published"]["grid/voltage [pu]"]
+    # the grid waits for the others at every t: it gets what they published at t
+    assert np.array_equal(r["grid_received"]["wind/power [W]"], wind)
+    assert np.array_equal(r["grid_received"]["hub/hubPower [W]"], hub)
+    # the hub gets w(0) from the wind's initializing mode at 0, then w(t - 1) at t
+    assert np.array_equal(r["hub_received"]["wind/power [W]"], np.r_[wind[0], wind[:-1]])
+    # wind and hub get the voltage the grid published at t - 1; nothing at 0
+    for name in ("hub", "wind"):
+        got = r[f"{name}_received"]["grid/voltage [pu]"]
+        assert np.isnan(got[0]) and np.array_equal(got[1:], voltage[:-1]), name
+
+
+def test_the_wind_is_the_seeded_series(ten_minutes):
+    expected = farm_power(DURATION + 1.0, 1.0, seed=SEED)[1]
+    assert np.array_equal(ten_minutes[0]["wind_published"]["wind/power [W]"], expected)
+
+
+def kg_per_nl(fmu):
+    """The factor of the display unit kg of the FMU's unit Nl, read with ElementTree."""
+    with zipfile.ZipFile(fmu) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    unit = next(u for u in root.iter("Unit") if u.get("name") == "Nl")
+    return float(next(d for d in unit.iter("DisplayUnit") if d.get("name") == "kg").get("factor"))
+
+
+def test_the_hub_is_the_fmu_driven_alone(ten_minutes, fmu_path):
+    wind = farm_power(DURATION + 1.0, 1.0, seed=SEED)[1]
+    with HubFMU(fmu_path, nModules=N_MODULES, dispatch=1, belowMinimum=0, powerInput=True) as hub:
+        hub.initialize(powerReference=wind[0])
+        rows = []
+        for k in range(DURATION + 1):
+            rows.append(hub.get(*HUB_OUTPUTS))
+            if k < DURATION:
+                hub.step(1.0, powerReference=wind[k])
+    alone = dict(zip(HUB_OUTPUTS, np.array(rows).T))
+    got = ten_minutes[0]["hub_published"]
+    assert np.array_equal(got["hub/hubPower [W]"], alone["hubPower"])
+    assert np.array_equal(got["hub/hubEnergy [J]"], alone["hubEnergy"])
+    assert np.array_equal(got["hub/hubH2MassFlow [kg/h]"], alone["hubH2MassFlow"])
+    assert np.array_equal(got["hub/hubH2Produced [kg]"], alone["hubH2Produced"] * kg_per_nl(fmu_path))
+    assert 0.5 < alone["hubPower"].mean() / wind.mean() < 1.5  # it does follow the wind
+
+
+def test_the_grid_gives_what_fresh_load_flows_give(ten_minutes):
+    r = ten_minutes[0]
+    received, published = r["grid_received"], r["grid_published"]
+    net = pn.create_cigre_network_hv()
+    bus = int(net.bus.index[net.bus.name == "Bus 1"][0])
+    wind, hub = pp.create_sgen(net, bus, p_mw=0.0), pp.create_load(net, bus, p_mw=0.0)
+    pp.runpp(net, numba=False)
+    base = net.res_ext_grid.p_mw.sum() * 1e6
+    for t in (0, 1, 2, 137, 300, 599, 600):
+        net.sgen.at[wind, "p_mw"] = received["wind/power [W]"][t] / 1e6
+        net.load.at[hub, "p_mw"] = received["hub/hubPower [W]"][t] / 1e6
+        pp.runpp(net, numba=False)  # from pandapower's default start, matrices built anew
+        # both converge to 1e-8 MVA, the federate from the previous solution: the same to rounding
+        assert published["grid/voltage [pu]"][t] == pytest.approx(net.res_bus.at[bus, "vm_pu"], abs=1e-10)
+        assert published["grid/slackPower [W]"][t] == pytest.approx(net.res_ext_grid.p_mw.sum() * 1e6, abs=0.1)
+    # conservation: the slack takes the hub's load less the wind; the losses change by less than
+    # 0.1 % of that (Bus 1 is next to the slack's transformer)
+    net_load = received["hub/hubPower [W]"] - received["wind/power [W]"]
+    assert np.all(np.abs(published["grid/slackPower [W]"] - base - net_load) <= 1e-3 * np.abs(net_load) + 1.0)
+    assert np.abs(net_load).max() > 1e6  # the hub does not absorb the wind exactly
+
+
+# --- failures ----------------------------------------------------------------------------------
+
+def test_a_federate_that_raises_ends_the_federation(federation):
+    f = federation(common=[f"--stall-timeout={STALL}"], grid=["--fail-at=30"])
+    status = f.wait(BOUND + 30)
+    assert all(s == 1 for s in status.values()), status
+    assert f.last_line("grid") == "grid: failed at t=30 s: RuntimeError: simulated failure at t=30 s (--fail-at)"
+    cause = "grid failed at t=30 s: RuntimeError: simulated failure at t=30 s (--fail-at)"
+    for name in ("wind", "hub"):
+        assert f.last_line(name).startswith(f"{name}: stopped at t="), f.last_line(name)
+        assert f.last_line(name).endswith(cause)
+    assert f.last_line("broker") == f"broker: the federation ended with an error: {cause}"
+    assert table(f.out / "grid_published.csv")["time [s]"].max() == 29  # its step at 30 did not finish
+    for name in ("wind", "hub"):  # nobody ran ahead of the grid by more than its inputs allow
+        assert table(f.out / f"{name}_published.csv")["time [s]"].max() <= 31
+
+
+@pytest.mark.parametrize("victim", ["grid", "hub", "broker"])
+def test_a_killed_process_ends_the_federation(federation, victim):
+    f = federation(common=[f"--stall-timeout={STALL}"])
+    f.wait_for_rows("grid_received.csv", 30)
+    killed = time.monotonic()
+    f.procs[victim].send_signal(signal.SIGKILL)
+    status = f.wait(BOUND)
+    assert time.monotonic() - killed < BOUND
+    assert status.pop(victim) == -signal.SIGKILL
+    assert all(s == 1 for s in status.values()), status
+    named = "the broker does not answer" if victim == "broker" else victim
+    for name in status:
+        line = f.last_line(name)
+        assert named in line and "died or lost its connection" in line, (name, line)
+        if name != "broker":
+            assert line.startswith(f"{name}: stopped at t="), line
+
+
+HANGING_GRID = """import sys, time
+sys.path.insert(0, {helics!r})
+sys.argv[0] = "grid_federate.py"
+import grid_federate
+from command_line import quiet_on_closed_stdout
+solve, calls = grid_federate.solve, []
+
+def hanging(net, first):
+    calls.append(1)
+    while len(calls) > 30:  # the load flow at t = 30 s never returns
+        time.sleep(1)
+    solve(net, first)
+
+grid_federate.solve = hanging
+quiet_on_closed_stdout(grid_federate.main)
+"""
+
+
+def test_a_step_that_hangs_ends_the_federation(federation, tmp_path):
+    program = tmp_path / "hanging_grid.py"
+    program.write_text(HANGING_GRID.format(helics=str(HELICS_DIR)))
+    f = federation(common=[f"--stall-timeout={STALL}"], programs={"grid": program})
+    status = f.wait(BOUND)
+    # the grid's watchdog raises the global error, then ends its stuck process (status 3)
+    assert status == {"broker": 1, "wind": 1, "hub": 1, "grid": 3}, status
+    cause = f"grid: its step at t=30 s has not finished after {STALL} s (--stall-timeout)"
+    assert f.last_line("grid") == "grid: watchdog: the federate did not end within 10 s of the error: exiting"
+    for name in ("broker", "wind", "hub"):
+        assert f.last_line(name).endswith(cause), f.last_line(name)
+    assert "Traceback" not in f.stderr("wind") + f.stderr("hub")
+
+
+def test_a_federate_that_never_comes_ends_the_federation(federation):
+    f = federation(names=("broker", "wind", "hub"), common=["--join-timeout=5"])
+    status = f.wait(BOUND)
+    assert status == {"broker": 1, "wind": 1, "hub": 1}, status
+    for name in status:
+        line = f.last_line(name)
+        assert "the federation has not started after 5 s" in line, line
+        assert line.endswith(("joined: wind, hub", "joined: hub, wind")), line  # in the order they came
+
+
+def test_the_wall_clock_limit_ends_the_federation(federation):
+    f = federation(hub=["--wall-limit=4"])
+    status = f.wait(BOUND)
+    assert all(s == 1 for s in status.values()), status
+    for name in status:
+        assert "hub: wall-clock limit of 4 s reached" in f.last_line(name), f.last_line(name)
+
+
+@pytest.mark.parametrize("name", FEDERATES)
+def test_an_unwritable_output_folder_ends_a_federate_at_once(name, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    done = subprocess.run([sys.executable, str(HELICS_DIR / f"{name}_federate.py"), f"--out={blocker / 'out'}"],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1
+    assert done.stderr.strip().splitlines() == [f"{name}_federate.py: cannot write {blocker / 'out'}: Not a directory"]
+    assert done.stdout == ""
