@@ -338,7 +338,7 @@ impl Instance {
     fn real(&self, var: RealVariable) -> Result<f64, String> {
         let value = match var.causality() {
             Causality::Output => {
-                let request = self.reserve_request();
+                let request = if var == RealVariable::ReserveRequest { self.reserve_request() } else { 0.0 };
                 self.with_plant(var.name(), |plant| real_output(var, plant, request))?
             }
             Causality::Input => {

@@ -142,6 +142,18 @@ def driver(unzipdir, model_description):
             pass
 
 
+def module_power(setpoint, p=PAPER):
+    """Steady stack power of one module [W] at `setpoint` [%]: (V0 + R*K*u)*K*u."""
+    i = p["gain"] * setpoint
+    return (p["voltageIntercept"] + p["ohmicResistance"] * i) * i
+
+
+def setpoint_for(power, p=PAPER):
+    """Setpoint [%] at which one module draws `power` [W] (the inverse polarisation curve)."""
+    v0, r = p["voltageIntercept"], p["ohmicResistance"]
+    return 2.0 * power / (p["gain"] * (v0 + math.sqrt(v0 * v0 + 4.0 * r * power)))
+
+
 def modal_weights(p=PAPER):
     """G(s) = K(a/(tauPole1 s+1) + b/(tauPole2 s+1)) with a + b = 1."""
     a = (p["tauZero"] - p["tauPole1"]) / (p["tauPole2"] - p["tauPole1"])

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import PAPER, ROOT, modal_weights
+from conftest import PAPER, ROOT, modal_weights, module_power, setpoint_for
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
 import generator_trip  # noqa: E402
@@ -27,16 +27,6 @@ K, V0, R = PAPER["gain"], PAPER["voltageIntercept"], PAPER["ohmicResistance"]
 DROOP = 1 / 0.05 + 0.02              # k2a's TGOV1: 1/R + D_t [pu power / pu speed] on each unit's rating
 MVA_LEFT = 3 * 900 + 450             # G2, G3, G4 and the G1 unit that stays
 STIFFNESS = DROOP * MVA_LEFT / 50.0  # MW/Hz
-
-
-def module_power(u):
-    """Steady stack power of one module [W] at setpoint u [%]: (V0 + R K u) K u."""
-    return (V0 + R * K * u) * K * u
-
-
-def setpoint_for(power):
-    """Setpoint [%] at which one module draws `power` [W] (inverse polarisation curve)."""
-    return 2.0 * power / (K * (V0 + math.sqrt(V0 * V0 + 4.0 * R * power)))
 
 
 @pytest.fixture(scope="module")

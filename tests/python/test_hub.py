@@ -5,17 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from conftest import PAPER
+from conftest import PAPER, module_power
 
 K, V0, R, C = PAPER["gain"], PAPER["voltageIntercept"], PAPER["ohmicResistance"], PAPER["h2Coefficient"]
 COLD_START, WARM_START, START_POWER, STANDBY_POWER, STOP_DURATION = 300.0, 30.0, 300.0, 100.0, 60.0
 IDLE, STARTING, RUNNING, STANDBY, STOPPING = range(5)
-
-
-def module_power(setpoint):
-    """Steady stack power of one module [W] at `setpoint` [%]: (V0 + R*K*u)*K*u."""
-    i = K * setpoint
-    return (V0 + R * i) * i
 
 
 def hub(driver, setpoint=100.0, power=0.0, integers=None, booleans=None, **reals):
@@ -80,7 +74,6 @@ def test_a_hub_told_a_constant_power_draws_it_in_steady_state(driver, dispatch, 
         assert running == n
     else:
         assert running == math.ceil(target / module_power(100.0))
-
 
 
 def test_modules_kept_warm_draw_from_the_reference(driver):

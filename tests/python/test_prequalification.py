@@ -15,19 +15,10 @@ import sys
 
 import pytest
 
-from conftest import PAPER, ROOT
+from conftest import PAPER, ROOT, module_power, setpoint_for
 
 N = 100
-K, V0, R, RAMP = PAPER["gain"], PAPER["voltageIntercept"], PAPER["ohmicResistance"], PAPER["rampUpLimit"]
-
-
-def module_power(i):
-    """Steady power of one module [W] at current i [A]."""
-    return (V0 + R * i) * i
-
-
-def current_for(power):
-    return 2.0 * power / (V0 + math.sqrt(V0 * V0 + 4.0 * R * power))
+K, RAMP = PAPER["gain"], PAPER["rampUpLimit"]
 
 
 @pytest.fixture(scope="module")
@@ -49,8 +40,8 @@ def capacity(rows, product, compensation):
 
 def test_mfrr_up_is_limited_by_the_window_alone(assessed):
     _, rows, _ = assessed
-    rated = N * module_power(K * 100.0)
-    bound = 0.8 * rated - N * module_power(K * 60.0)
+    rated = N * module_power(100.0)
+    bound = 0.8 * rated - N * module_power(60.0)
     for compensation in ("off", "on"):
         assert capacity(rows, "mFRR up", compensation) == pytest.approx(bound, abs=1.0)
         assert rows[("mFRR up", compensation)]["limiting requirement"] == "operating window"
@@ -66,10 +57,10 @@ def test_ffr_passes_at_no_capacity(assessed):
 
 def test_compensated_continental_fcr_is_limited_by_the_ramp_over_30_s(assessed):
     _, rows, _ = assessed
-    rated = N * module_power(K * 100.0)
+    rated = N * module_power(100.0)
     base = 0.8 * rated / N
-    i_b = current_for(base)
-    ramped = N * (module_power(i_b + 30.0 * RAMP) - base)
+    i_b = K * setpoint_for(base)
+    ramped = N * (module_power((i_b + 30.0 * RAMP) / K) - base)
     tolerance = 0.05  # the power-measurement accuracy class of capacities below 1.5 MW
     limit = ramped / (1 - tolerance)
     found = capacity(rows, "Continental FCR", "on")

@@ -13,21 +13,10 @@ import numpy as np
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from conftest import PAPER, modal_weights
+from conftest import PAPER, modal_weights, module_power, setpoint_for
 
-K, V0, R, RAMP = PAPER["gain"], PAPER["voltageIntercept"], PAPER["ohmicResistance"], PAPER["rampUpLimit"]
+K, RAMP = PAPER["gain"], PAPER["rampUpLimit"]
 TAU1, TAU2 = PAPER["tauPole1"], PAPER["tauPole2"]
-
-
-def module_power(u):
-    """Steady stack power of one module [W] at setpoint u [%]."""
-    i = K * u
-    return (V0 + R * i) * i
-
-
-def setpoint_for(power):
-    """Setpoint [%] at which one module draws `power` [W] (inverse polarisation curve)."""
-    return 2.0 * power / (K * (V0 + math.sqrt(V0 * V0 + 4.0 * R * power)))
 
 
 def hub(driver, n=4, power=None, setpoint=100.0, reals=None, compensation=False):

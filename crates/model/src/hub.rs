@@ -122,6 +122,8 @@ pub struct Hub {
     totals: HubTotals,
     /// Upper bound of the hub's power [W], for the overflow check.
     max_power: f64,
+    /// The window's steady power range of the whole hub [W] ([`Hub::power_range`]).
+    power_range: (f64, f64),
     /// Scratch for choosing modules (reused: no allocation once warm).
     order: Vec<u32>,
     /// With many parameter sets, their tracking-step constants in lanes (built for the step
@@ -208,6 +210,12 @@ impl Hub {
         if !demand.value().is_finite() {
             return Err(ParameterError { name: "setpoint", value: demand.value(), requirement: "must be a finite number".into() });
         }
+        let stays = config.operation.below_minimum == BelowMinimum::Minimum;
+        let power_range = types.iter().fold((0.0, 0.0), |(lo, hi), ty| {
+            let n = ty.count as f64;
+            let min = if stays { n * power_at_setpoint(&ty.params, ty.params.min_setpoint) } else { 0.0 };
+            (lo + min, hi + n * power_at_setpoint(&ty.params, ty.params.max_setpoint))
+        });
         let mut hub = Hub {
             config,
             groups: Vec::with_capacity(types.len().max(4)),
@@ -215,6 +223,7 @@ impl Hub {
             running_target: 0,
             totals: HubTotals::default(),
             max_power,
+            power_range,
             order: Vec::new(),
             lanes: None,
             // The lanes step the plain dynamics only.
@@ -505,12 +514,7 @@ impl Hub {
     /// maxSetpoint at most; at least every module at minSetpoint where modules never stop
     /// (belowMinimum = stay at minimum), else 0 (start-up and standby power aside).
     pub fn power_range(&self) -> (f64, f64) {
-        let stays = self.config.operation.below_minimum == BelowMinimum::Minimum;
-        self.types.iter().fold((0.0, 0.0), |(lo, hi), ty| {
-            let n = ty.count as f64;
-            let min = if stays { n * power_at_setpoint(&ty.params, ty.params.min_setpoint) } else { 0.0 };
-            (lo + min, hi + n * power_at_setpoint(&ty.params, ty.params.max_setpoint))
-        })
+        self.power_range
     }
 
     /// The configuration.

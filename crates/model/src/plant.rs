@@ -246,10 +246,11 @@ impl Plant {
         power_reference: f64,
         request: f64,
     ) -> Result<Self, ParameterError> {
-        let plant = Plant::new(params, config, module_sets, setpoint, power_reference)?;
-        if request == 0.0 {
-            return Ok(plant);
+        if request == 0.0 || config.power_input {
+            return Plant::new(params, config, module_sets, setpoint, power_reference + request);
         }
+        // The setpoint's power needs the hub's first parameter set (spread or from a file).
+        let plant = Plant::new(params, config, module_sets, setpoint, power_reference)?;
         match plant.requested_demand(config, setpoint, power_reference, request) {
             Demand::Power(p) => Plant::new(params, config, module_sets, setpoint, p),
             Demand::Setpoint(u) => Plant::new(params, config, module_sets, u, power_reference),
@@ -298,16 +299,19 @@ impl Plant {
         }
         response.end_due(t);
         response.begin_step(t, frequency);
-        let mut report = self.reserve_step(config, setpoint, power_reference, response.request(frequency));
+        let mut shortfall = 0.0_f64;
         let (mut now, mut left) = (t, h);
         while left > 0.0 {
             let cut = response.next_event().filter(|until| *until > now && *until - now < left);
             let piece = cut.map_or(left, |until| until - now);
             let request = response.request(frequency);
             self.step_requested(config, setpoint, slope, power_reference, request, piece)?;
-            let step = self.reserve_step(config, setpoint, power_reference, request);
-            if step.shortfall.abs() > report.shortfall.abs() {
-                report.shortfall = step.shortfall;
+            // Nothing asked, nothing short.
+            if request != 0.0 {
+                let short = self.reserve_step(config, setpoint, power_reference, request).shortfall;
+                if short.abs() > shortfall.abs() {
+                    shortfall = short;
+                }
             }
             now += piece;
             left = if cut.is_some() { left - piece } else { 0.0 };
@@ -315,8 +319,8 @@ impl Plant {
                 response.end_due(f64::INFINITY); // the support ends exactly at the cut
             }
         }
-        report.request = response.request(frequency);
-        Ok(report)
+        let report = self.reserve_step(config, setpoint, power_reference, response.request(frequency));
+        Ok(ReserveStep { shortfall, ..report })
     }
 
     /// The demand for these inputs with `request` [W] added: to the power reference, or in
