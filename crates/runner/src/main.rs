@@ -1,0 +1,113 @@
+//! aem-run: one scenario of the packaged hub FMU, driven natively through its C interface
+//! (the `fmi` crate), over a reference series held over each step; prints the KPIs as JSON.
+//!
+//! ```sh
+//! aem-run --fmu target/fmu/AemElectrolyser.fmu --reference wind.f64 --step 1 --input power \
+//!     --param dispatch=2 --param belowMinimum=1 --hub-size 0.9 --source-rating 64e6
+//! ```
+//!
+//! `--reference` is a file of little-endian f64, one value per step ([W] for `--input power`,
+//! the default; [%] for `--input setpoint`). Parameters are set by their model-description
+//! names (enumerations by their codes). `--hub-size F --source-rating W` sizes the hub to
+//! F·W of rated power (nModules from one module's steady power at maxSetpoint).
+//!
+//! Prints one JSON object: `{"status": "done", "kpis": {...}, "messages": [...]}` with the
+//! KPIs of study/kpis.py, or `{"status": "failed", "message": "..."}` naming the failed call
+//! and the FMU's own messages (exit status 1).
+
+mod driver;
+mod fmu_messages;
+mod kpis;
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use serde_json::{json, Value};
+
+use driver::{Input, Scenario};
+
+struct Args {
+    fmu: PathBuf,
+    scenario: Scenario,
+}
+
+fn parse_args(argv: &[String]) -> Result<Args, String> {
+    let mut fmu = None;
+    let mut reference = None;
+    let mut step = None;
+    let mut start = 0.0;
+    let mut input = Input::Power;
+    let mut parameters = Vec::new();
+    let (mut hub_size, mut source_rating) = (None, None);
+    let mut it = argv.iter();
+    while let Some(flag) = it.next() {
+        let mut value = || it.next().cloned().ok_or_else(|| format!("{flag} needs a value"));
+        let number = |text: String| text.parse::<f64>().map_err(|_| format!("{flag} {text}: not a number"));
+        match flag.as_str() {
+            "--fmu" => fmu = Some(PathBuf::from(value()?)),
+            "--reference" => reference = Some(PathBuf::from(value()?)),
+            "--step" => step = Some(number(value()?)?),
+            "--start" => start = number(value()?)?,
+            "--hub-size" => hub_size = Some(number(value()?)?),
+            "--source-rating" => source_rating = Some(number(value()?)?),
+            "--input" => {
+                input = match value()?.as_str() {
+                    "power" => Input::Power,
+                    "setpoint" => Input::Setpoint,
+                    other => return Err(format!("--input {other}: power or setpoint")),
+                }
+            }
+            "--param" => {
+                let text = value()?;
+                let (name, v) = text.split_once('=').ok_or(format!("--param {text}: NAME=VALUE"))?;
+                parameters.push((name.trim().to_string(), v.to_string()));
+            }
+            other => return Err(format!("unknown argument {other}")),
+        }
+    }
+    let hub_size = match (hub_size, source_rating) {
+        (Some(f), Some(w)) if f > 0.0 && w > 0.0 => Some((f, w)),
+        (None, None) => None,
+        _ => return Err("--hub-size needs --source-rating, both > 0".into()),
+    };
+    let path = reference.ok_or("--reference is required")?;
+    let bytes = std::fs::read(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    if bytes.len() % 8 != 0 {
+        return Err(format!("{}: {} bytes is not a whole number of f64", path.display(), bytes.len()));
+    }
+    let reference = bytes.chunks_exact(8).map(|b| f64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]])).collect();
+    Ok(Args {
+        fmu: fmu.ok_or("--fmu is required")?,
+        scenario: Scenario { parameters, input, reference, start, step: step.ok_or("--step is required")?, hub_size },
+    })
+}
+
+fn main() {
+    let argv: Vec<String> = std::env::args().skip(1).collect();
+    fmu_messages::install();
+    let clock = Instant::now();
+    let outcome = parse_args(&argv).and_then(|args| driver::run(&args.fmu, &args.scenario));
+    let (messages, dropped) = fmu_messages::take();
+    let mut messages: Vec<Value> = messages.into_iter().map(Value::from).collect();
+    if dropped > 0 {
+        messages.push(Value::from(format!("... and {dropped} more messages")));
+    }
+    let (report, code) = match outcome {
+        Ok((totals, sums)) => (
+            json!({
+                "status": "done",
+                "kpis": kpis::row(&totals, sums.as_ref()),
+                "messages": messages,
+                "run time [s]": clock.elapsed().as_secs_f64(),
+            }),
+            0,
+        ),
+        Err(error) => {
+            let text = messages.iter().filter_map(Value::as_str).collect::<Vec<_>>().join(" | ");
+            let message = if text.is_empty() { error } else { format!("{error}. The FMU: {text}") };
+            (json!({ "status": "failed", "message": message }), 1)
+        }
+    };
+    println!("{report}");
+    std::process::exit(code);
+}

@@ -1,0 +1,24 @@
+"""The KPI columns of a study's table, in the order of the table, each with its unit.
+
+`aem-run` (crates/runner) writes exactly these keys; `study.report` plots and summarises them.
+"""
+
+#: KPI column name -> one-line meaning (the units are in the names).
+KPIS = {
+    "modules [1]": "number of modules in the hub",
+    "hub rated power [MW]": "modules x one module's steady power at maxSetpoint",
+    "horizon [h]": "simulated time",
+    "reference energy [MWh]": "energy of the power reference (the wind offered), held over each step",
+    "energy drawn [MWh]": "electric energy drawn by the hub (hubEnergy)",
+    "hydrogen [kg]": "hydrogen produced by the hub (hubH2Produced)",
+    "specific energy [kWh/kg]": "energy drawn per kilogram of hydrogen",
+    "wind not absorbed [MWh]": "sum over steps of max(reference - hub, 0) energy",
+    "grid import [MWh]": "sum over steps of max(hub - reference, 0) energy",
+    "full-load hours [h]": "energy drawn / hub rated power",
+    "starts per module [1]": "start-ups summed over the modules / modules",
+    "running hours per module [h]": "running time summed over the modules / modules",
+    "rms tracking error [MW]": "RMS over steps of the hub's step-mean power minus the reference capped at the hub's rated power",
+}
+
+#: Columns of a scenario's run, not of the model: they differ between runs of the same scenario.
+RUN_COLUMNS = ["run time [s]", "worker"]

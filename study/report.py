@@ -1,0 +1,280 @@
+"""The report of a study: its table (`kpis.parquet`, `kpis.csv`), one PNG per KPI against the
+axes (`plots/`), and `summary.txt`, the page a planner reads first.
+
+The CSV's floats are written by pandas' shortest round-trip repr: `read_csv` below (or pandas
+with `float_precision="round_trip"`) reads back the same doubles. Replicate axes (`seed`,
+`series`) are averaged over in the plots, best cases and pivot, their min-max shown as spread.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from .kpis import KPIS, RUN_COLUMNS  # noqa: E402
+
+#: Axes whose values are replicates of one configuration, not choices of a planner.
+REPLICATES = ("seed", "series")
+#: More line combinations than this are split into subplots by the first line axis.
+MAX_LINES = 12
+#: KPIs with a best case in the summary, and whether larger is better.
+BEST = {"hydrogen [kg]": True, "wind not absorbed [MWh]": False}
+PIVOT_KPI = "hydrogen [kg]"
+LABELS = ["scenario", "status", "message"]
+
+
+@dataclass(frozen=True)
+class Layout:
+    """How KPIs are drawn against the axes: `x` on the horizontal axis (None: the study has no
+    axis), one line per combination of `lines`, mean and min-max over `replicates`."""
+
+    x: Optional[str]
+    lines: list
+    replicates: list
+    categorical: bool
+
+
+def _numeric(column: pd.Series) -> bool:
+    return pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column)
+
+
+def layout(table: pd.DataFrame, axes: list) -> Layout:
+    """x: the first numeric varying non-replicate axis, else the first varying one (categories);
+    if only replicates vary, the first of them; if nothing varies, the first axis."""
+    varying = [a for a in axes if table[a].nunique(dropna=False) > 1]
+    choices = [a for a in varying if a not in REPLICATES]
+    candidates = choices or [a for a in varying if a in REPLICATES] or axes[:1]
+    x = next((a for a in candidates if _numeric(table[a])), candidates[0] if candidates else None)
+    return Layout(x, [a for a in choices if a != x],
+                  [a for a in varying if a in REPLICATES and a != x],
+                  x is None or not _numeric(table[x]))
+
+
+def ordered(table: pd.DataFrame, axes: list) -> pd.DataFrame:
+    """Rows sorted by the axes in the study's order (stable); columns: axes, KPIs, run
+    columns, scenario, status, message, then any others."""
+    rows = table.sort_values(axes, kind="mergesort") if axes else table
+    first = list(axes) + [c for c in [*KPIS, *RUN_COLUMNS, *LABELS] if c in table]
+    return rows[first + [c for c in table if c not in first]].reset_index(drop=True)
+
+
+def read_csv(path: Path) -> pd.DataFrame:
+    """kpis.csv as written: exact doubles, only empty cells as NaN (a series may be called
+    "NA"), scenario keys as strings (a hex key such as "12e4" is no number), messages ""."""
+    table = pd.read_csv(path, float_precision="round_trip", keep_default_na=False,
+                        na_values=[""], dtype={c: str for c in LABELS})
+    return table.fillna({"message": ""})
+
+
+def _fmt(value) -> str:
+    """An axis value or KPI as a planner reads it: floats with 6 significant digits, from a
+    million on whole and grouped by thousands (15,234,567 kg, not 1.52346e+07)."""
+    if not isinstance(value, float):
+        return str(value)
+    if math.isnan(value):
+        return "–"
+    return f"{value:,.0f}" if 1e6 <= abs(value) < 1e15 else f"{value:.6g}"
+
+
+def _unit(kpi: str) -> str:
+    """The unit in a column's name ("hydrogen [kg]" -> "kg"); "1" (a count) reads as none."""
+    found = re.search(r"\[(.*)\]\s*$", kpi)
+    return "" if found is None or found.group(1) == "1" else found.group(1)
+
+
+def _where(row, names) -> str:
+    return ", ".join(f"{a}={_fmt(row[a])}" for a in names)
+
+
+def slug(kpi: str) -> str:
+    """A KPI's file name stem: "specific energy [kWh/kg]" -> "specific_energy_kWh_per_kg"."""
+    return re.sub(r"[^A-Za-z0-9.-]+", "_", kpi.replace("/", " per ")).strip("_")
+
+
+def stats(table: pd.DataFrame, lay: Layout, kpi: str) -> pd.DataFrame:
+    """Mean, min and max of `kpi` over the replicates of each (x, lines) combination of the
+    done scenarios, sorted by x then lines."""
+    done = table[table["status"] == "done"]
+    keys = [a for a in (lay.x, *lay.lines) if a]
+    if not keys:
+        return done[kpi].agg(["mean", "min", "max"]).to_frame().T
+    return done.groupby(keys, sort=True)[kpi].agg(["mean", "min", "max"]).reset_index()
+
+
+def pivot(table: pd.DataFrame, axes: list, kpi: str = PIVOT_KPI) -> pd.DataFrame:
+    """Mean of `kpi` over the replicates: rows the x axis' values, columns the lines'."""
+    lay = layout(table, axes)
+    means = stats(table, lay, kpi)
+    if lay.x is None:
+        return means[["mean"]].rename(columns={"mean": kpi})
+    if not lay.lines:
+        return means.set_index(lay.x)[["mean"]].rename(columns={"mean": kpi})
+    return means.pivot(index=lay.x, columns=lay.lines, values="mean")
+
+
+def _panels(n: int):
+    """A figure of n panels sharing y: 7 x 4.5 in for one, a grid of up to 3 columns else."""
+    cols = min(n, 3)
+    rows = -(-n // cols)
+    size = (7, 4.5) if n == 1 else (min(4.2 * cols, 13), 3.2 * rows + 0.8)
+    fig, axs = plt.subplots(rows, cols, figsize=size, sharey=True, squeeze=False)
+    for ax in axs.flat[n:]:
+        ax.set_visible(False)
+    return fig, list(axs.flat[:n])
+
+
+def _draw(ax, x, line: pd.DataFrame, label, i: int, spread: bool, band: bool):
+    """One line of means; the min-max over replicates as a band (numeric x) or error bars."""
+    color = f"C{i % 10}"
+    ax.plot(x, line["mean"], marker="o", ms=4, color=color, ls="-" if i < 10 else "--",
+            label=label)
+    if spread and band:
+        ax.fill_between(x, line["min"], line["max"], color=color, alpha=0.2, lw=0)
+    elif spread:
+        ax.errorbar(x, line["mean"], yerr=[line["mean"] - line["min"], line["max"] - line["mean"]],
+                    fmt="none", ecolor=color, capsize=3)
+
+
+def _split(table: pd.DataFrame, means: pd.DataFrame, lay: Layout) -> list:
+    """(panel title, its rows of `means`, its line axes): one panel, or one per value of the
+    first line axis when there are more than MAX_LINES combinations of lines."""
+    if not lay.lines or len(table[lay.lines].drop_duplicates()) <= MAX_LINES:
+        return [(None, means, lay.lines)]
+    first = lay.lines[0]
+    return [(f"{first}={_fmt(v)}", means[means[first] == v], lay.lines[1:])
+            for v in sorted(table[first].unique())]
+
+
+def _x(line: pd.DataFrame, lay: Layout, cats: Optional[list]):
+    """Positions on the x axis: the x axis' values, or the indices of its categories."""
+    if cats is None:
+        return line[lay.x]
+    return line[lay.x].map(cats.index) if lay.x else [0] * len(line)
+
+
+def plot_kpi(table: pd.DataFrame, lay: Layout, kpi: str, title: str, path: Path) -> Path:
+    """`kpi` against x, one line per combination of the line axes (subplots by the first line
+    axis past MAX_LINES combinations), mean and spread over the replicates."""
+    means = stats(table, lay, kpi)
+    cats = (sorted(table[lay.x].unique()) if lay.x else ["all"]) if lay.categorical else None
+    parts = _split(table, means, lay)
+    fig, axs = _panels(len(parts))
+    for ax, (name, part, inner) in zip(axs, parts):
+        lines = part.groupby(inner, sort=True) if inner else [(None, part)]
+        for i, (key, line) in enumerate(lines):
+            label = None if key is None else _where(dict(zip(inner, key)), inner)
+            _draw(ax, _x(line, lay, cats), line, label, i, bool(lay.replicates), cats is None)
+        if cats:
+            ax.set_xticks(range(len(cats)), [_fmt(c) for c in cats])
+            ax.set_xlim(-0.5, len(cats) - 0.5)
+        ax.set(xlabel=lay.x or "", ylabel=kpi)
+        ax.set_title(name or "", fontsize=9)
+        ax.grid(alpha=0.3)
+        if inner:
+            ax.legend(fontsize=7)
+    spread = f"\nmean over {', '.join(lay.replicates)}; spread: min–max" if lay.replicates else ""
+    fig.suptitle(f"{kpi} — {title}{spread}", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def _axis_values(table: pd.DataFrame, axis: str) -> str:
+    values = sorted(table[axis].unique())
+    shown = values if len(values) <= 6 else [values[0], "…", values[-1]]
+    count = "1 value" if len(values) == 1 else f"{len(values)} values"
+    return f"{axis}: {', '.join(_fmt(v) for v in shown)} ({count})"
+
+
+def _over(lay: Layout) -> str:
+    return f" over {', '.join(lay.replicates)}" if lay.replicates else ""
+
+
+def _failures(table: pd.DataFrame, axes: list) -> list:
+    """One line per failed scenario: its axis values, key and the first line of its message."""
+    failed = table[table["status"] != "done"]
+    out = ["Failed scenarios:" if len(failed) else "Failed scenarios: none"]
+    for _, row in failed.iterrows():
+        message = (str(row["message"]).strip().splitlines() or ["(no message)"])[0]
+        out.append(f"  {_where(row, axes)} [{row['scenario']}]: {message}")
+    return out
+
+
+def _ranges(done: pd.DataFrame) -> list:
+    """min … max of each KPI over the done scenarios, with its unit."""
+    out = ["KPI ranges over the done scenarios (min … max):"]
+    for kpi in [k for k in KPIS if k in done]:
+        lo, hi = done[kpi].min(), done[kpi].max()
+        span = "no values" if pd.isna(lo) else f"{_fmt(lo)} … {_fmt(hi)} {_unit(kpi)}".rstrip()
+        out.append(f"  {kpi:<32} {span}")
+    return out
+
+
+def _best(table: pd.DataFrame, lay: Layout) -> list:
+    """The configuration (mean over the replicates) with the most hydrogen, the least wind lost."""
+    out = [f"Best cases (mean{_over(lay)}):" if lay.replicates else "Best cases:"]
+    for kpi, larger in BEST.items():
+        means = stats(table, lay, kpi).dropna(subset=["mean"]) if kpi in table else []
+        if not len(means):
+            out.append(f"  {kpi}: no values")
+            continue
+        best = means.loc[means["mean"].idxmax() if larger else means["mean"].idxmin()]
+        where = _where(best, [a for a in (lay.x, *lay.lines) if a]) or "the only scenario"
+        out.append(f"  {'largest' if larger else 'smallest'} {kpi}: "
+                   f"{_fmt(best['mean'])} {_unit(kpi)} at {where}")
+    return out
+
+
+def _pivot_text(table: pd.DataFrame, axes: list, lay: Layout) -> list:
+    """The pivot of PIVOT_KPI as text, its values and the x axis' values formatted."""
+    if PIVOT_KPI not in table or table.loc[table["status"] == "done", PIVOT_KPI].isna().all():
+        return []
+    frame = pivot(table, axes).map(_fmt)
+    frame.index = frame.index.map(_fmt) if lay.x else [""]
+    cols = f" (rows) and {', '.join(lay.lines)} (columns)" if lay.lines else ""
+    return ([f"Mean {PIVOT_KPI}{_over(lay)} by {lay.x}{cols}:"]
+            + ["  " + line for line in frame.to_string().splitlines()])
+
+
+def summary(table: pd.DataFrame, axes: list, title: str) -> str:
+    """The plain-text summary: counts, axes, failures, KPI ranges, best cases and the pivot."""
+    lay = layout(table, axes)
+    done = table[table["status"] == "done"]
+    head = [f"Study: {title}", f"Scenarios: {len(done)} done, {len(table) - len(done)} failed "
+            f"({len(table)} in all)", "", "Axes:"] + [f"  {_axis_values(table, a)}" for a in axes]
+    parts = [head, _failures(table, axes), _ranges(done), _best(table, lay),
+             _pivot_text(table, axes, lay)]
+    return "\n\n".join("\n".join(p) for p in parts if p) + "\n"
+
+
+def write_report(table: pd.DataFrame, axes: list[str], out_dir: Path, title: str,
+                 plots: bool = True) -> dict[str, Path]:
+    """Write kpis.parquet, kpis.csv, summary.txt and (if `plots`) plots/<slug>.png for each
+    KPI with a finite value into out_dir; returns {path relative to out_dir: path}."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    table = ordered(table, list(axes))
+    written = {"kpis.parquet": out / "kpis.parquet", "kpis.csv": out / "kpis.csv",
+               "summary.txt": out / "summary.txt"}
+    table.to_parquet(written["kpis.parquet"], index=False)
+    table.to_csv(written["kpis.csv"], index=False)
+    written["summary.txt"].write_text(summary(table, list(axes), title), encoding="utf-8")
+    if plots:
+        lay = layout(table, list(axes))
+        done = table[table["status"] == "done"]
+        for kpi in [k for k in KPIS if k in table]:
+            if np.isfinite(done[kpi].to_numpy(dtype=float)).any():
+                (out / "plots").mkdir(exist_ok=True)
+                name = f"plots/{slug(kpi)}.png"
+                written[name] = plot_kpi(table, lay, kpi, title, out / name)
+    return written
