@@ -9,7 +9,8 @@
 #   download, 1.9 GB installed, under a minute); cargo-zigbuild and
 #   ziglang (linux64 against glibc 2.17) come with requirements.txt;
 # - cargo-fuzz (scripts/fuzz.sh), from crates.io; libtbb12 (Ecos, an importer in the tests);
-# - .venv with the Python tools of requirements.txt (fmpy, numpy, scipy, pytest, ...).
+# - .venv with the Python tools of requirements.txt (fmpy, numpy, scipy, pytest, ...) and the
+#   aem-study command (pyproject.toml).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -57,4 +58,10 @@ if [ ! -x .venv/bin/python ] || ! cmp -s requirements.txt .venv/requirements.ins
   python3 -m venv .venv
   .venv/bin/python -m pip install -q --disable-pip-version-check -r requirements.txt
   cp requirements.txt .venv/requirements.installed
+fi
+
+# The aem-study command (pyproject.toml), editable: it runs this checkout's study/.
+if [ ! -x .venv/bin/aem-study ]; then
+  echo "setup: installing the aem-study command into .venv"
+  .venv/bin/python -m pip install -q --disable-pip-version-check --no-deps --no-build-isolation -e .
 fi

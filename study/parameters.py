@@ -29,18 +29,23 @@ class ModelParameters:
             for v in md.modelVariables if v.causality == "parameter"
         }
 
-    def column(self, name):
-        """Table column of a parameter axis: its name with its unit."""
-        unit = self.variables[name].unit
-        return f"{name} [{unit}]" if unit else name
-
-    def text(self, name, value):
-        """`value` of parameter `name` as the text aem-run sets (enumerations as codes)."""
+    def variable(self, name):
+        """The parameter `name`, or a ValueError naming the FMU's parameters."""
         if name in self.RESERVED:
             raise ValueError(f"{name} is set by aem-study from the series (power or setpoint)")
         var = self.variables.get(name)
         if var is None:
             raise ValueError(f"the FMU has no parameter {name!r}; parameters: {', '.join(sorted(self.variables))}")
+        return var
+
+    def column(self, name):
+        """Table column of a parameter axis: its name with its unit."""
+        unit = self.variable(name).unit
+        return f"{name} [{unit}]" if unit else name
+
+    def text(self, name, value):
+        """`value` of parameter `name` as the text aem-run sets (enumerations as codes)."""
+        var = self.variable(name)
         if var.type == "Real" and isinstance(value, (int, float)) and not isinstance(value, bool):
             return repr(float(value))
         if var.type == "Integer" and isinstance(value, int) and not isinstance(value, bool):
@@ -55,7 +60,7 @@ class ModelParameters:
             if isinstance(value, int) and not isinstance(value, bool) and value in var.items.values():
                 return str(value)
             raise ValueError(f"{name} = {value!r}: one of {', '.join(var.items)}")
-        raise ValueError(f"{name} = {value!r} is not a {var.type}")
+        raise ValueError(f"{name} = {value!r} is not {'an' if var.type[0] in 'IE' else 'a'} {var.type}")
 
     def label(self, name, value):
         """How the table shows `value` (enumerations by item name)."""

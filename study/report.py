@@ -229,9 +229,10 @@ def _best(table: pd.DataFrame, lay: Layout) -> list:
             out.append(f"  {kpi}: no values")
             continue
         best = means.loc[means["mean"].idxmax() if larger else means["mean"].idxmin()]
-        where = _where(best, [a for a in (lay.x, *lay.lines) if a]) or "the only scenario"
+        where = _where(best, [a for a in (lay.x, *lay.lines) if a])
+        where = f"at {where}" if where else "(one scenario)"
         out.append(f"  {'largest' if larger else 'smallest'} {kpi}: "
-                   f"{_fmt(best['mean'])} {_unit(kpi)} at {where}")
+                   f"{_fmt(best['mean'])} {_unit(kpi)} {where}")
     return out
 
 
@@ -242,7 +243,8 @@ def _pivot_text(table: pd.DataFrame, axes: list, lay: Layout) -> list:
     frame = pivot(table, axes).map(_fmt)
     frame.index = frame.index.map(_fmt) if lay.x else [""]
     cols = f" (rows) and {', '.join(lay.lines)} (columns)" if lay.lines else ""
-    return ([f"Mean {PIVOT_KPI}{_over(lay)} by {lay.x}{cols}:"]
+    by = f" by {lay.x}{cols}" if lay.x else ""
+    return ([f"Mean {PIVOT_KPI}{_over(lay)}{by}:"]
             + ["  " + line for line in frame.to_string().splitlines()])
 
 
@@ -251,7 +253,8 @@ def summary(table: pd.DataFrame, axes: list, title: str) -> str:
     lay = layout(table, axes)
     done = table[table["status"] == "done"]
     head = [f"Study: {title}", f"Scenarios: {len(done)} done, {len(table) - len(done)} failed "
-            f"({len(table)} in all)", "", "Axes:"] + [f"  {_axis_values(table, a)}" for a in axes]
+            f"({len(table)} in all)", "", "Axes:" if axes else "Axes: none"]
+    head += [f"  {_axis_values(table, a)}" for a in axes]
     parts = [head, _failures(table, axes), _ranges(done), _best(table, lay),
              _pivot_text(table, axes, lay)]
     return "\n\n".join("\n".join(p) for p in parts if p) + "\n"

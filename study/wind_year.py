@@ -23,7 +23,7 @@ Model (every number is a default field of `WindClimate`; time t = 0 is 1 January
   between hour midpoints (held before the first), TI = 8 %. u_i is the turbulence of
   examples/wind_farm.py (Kaimal spectrum, Davenport coherence between turbines) normalised
   to unit standard deviation and passed through its rotor filter τ = D/(2V). It is
-  synthesised in records ("chunks") of 3 h + 10 min overlap, each at the record's mean wind
+  synthesised in records ("chunks") of 3 h + 12 min overlap, each at the record's mean wind
   (the Kaimal time scale L/V follows the weather) from its own seed; a record's circular FFT
   synthesis and its circular rotor filter make it periodic, so consecutive records are
   blended over the overlap with weights cos and sin of π/2·s (cos² + sin² = 1: the
@@ -65,8 +65,8 @@ class WindClimate:
     diurnal_amplitude: float = 0.02     # a_d [1]
     peak_hour: float = 18.0             # hour of the diurnal maximum [h]
     turbulence_intensity: float = 0.08  # TI = σ/V [1]
-    chunk: float = 3 * HOUR             # turbulence record, without its overlap [s]
-    overlap: float = 600.0              # blend between consecutive records [s]
+    chunk: float = 3 * HOUR             # turbulence record without its overlap [s]
+    overlap: float = 720.0              # blend of consecutive records [s]; 3 h + 12 min = 2^8·3²·5 s
 
     @property
     def weibull_scale(self):
@@ -117,13 +117,18 @@ def _synthesise(duration, dt, seed, climate, emit, threads, rotor_filter=True):
     def send(k0, mean, u):
         k1 = min(k0 + mean.size, n)
         if k1 > k0:
-            emit(k0, k1, mean[:k1 - k0] * (1.0 + ti * u[:, :k1 - k0]))
+            v = u[:, :k1 - k0] * ti
+            v += 1.0
+            v *= mean[:k1 - k0]
+            emit(k0, k1, v)
 
     def record(j):
         """Mean wind [m/s] and unit rotor-effective turbulence [1] of samples j m … (j+1) m + o."""
         mean = np.interp((j * m + np.arange(m + o) + 0.5) * dt, midpoints, hourly)
         site = Site(mean_speed=float(mean.mean()), turbulence_intensity=ti)
-        u = (turbulent_speeds((m + o) * dt, dt, site, N_TURBINES, _seeds(seed, 1, j)) - site.mean_speed) / site.sigma
+        u = turbulent_speeds((m + o) * dt, dt, site, N_TURBINES, _seeds(seed, 1, j))
+        u -= site.mean_speed
+        u /= site.sigma
         if rotor_filter:
             u = rotor_effective(u, dt, site.mean_speed, diameter)
         body = o if j else 0  # the head of records after the first is blended

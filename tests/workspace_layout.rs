@@ -1,4 +1,5 @@
-//! The workspace's dependencies point one way: the FMU → `aem-model` ← `aem-identify`.
+//! The workspace's dependencies point one way: the FMU → `aem-model` ← `aem-identify`, and
+//! `aem-run` drives the packaged FMU through its C interface only.
 //! `cargo tree` of each package (normal and build dependencies) must not reach what lies
 //! above or beside it, so the FMU binary carries none of the identification tool's crates.
 
@@ -49,4 +50,12 @@ fn the_identification_uses_the_model_and_never_the_fmu() {
     let tree = dependency_tree("aem-identify");
     assert!(tree.contains("aem-model"), "{tree:?}");
     assert_absent("aem-identify", &tree, &["aem-electrolyser-fmu", "fmi-sys"]);
+}
+
+#[test]
+fn the_runner_knows_the_model_only_through_the_packaged_fmu() {
+    let tree = dependency_tree("aem-run");
+    assert!(tree.contains("fmi"), "{tree:?}");
+    assert_absent("aem-run", &tree, &["aem-model", "aem-electrolyser-fmu"]);
+    assert_absent("aem-run", &tree, &TOOL_CRATES);
 }

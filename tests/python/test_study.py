@@ -1,0 +1,286 @@
+"""aem-study end to end: study files in tmp_path, the packaged FMU driven by aem-run, serial
+and on a real Dask LocalCluster (worker processes on the loopback).
+
+Expectations: closed-form KPIs of an equal hub at a constant reference, the serial run for
+the cluster's (bit for bit), the FMU's own messages for refused parameters, and the store's
+contents for stopped, resumed and worker-killed studies."""
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from conftest import PAPER, ROOT, module_power, setpoint_for
+
+sys.path.insert(0, str(ROOT))
+from study import engine  # noqa: E402
+from study.definition import Study  # noqa: E402
+from study.kpis import KPIS  # noqa: E402
+from study.series import reference  # noqa: E402
+from study.table import table  # noqa: E402
+
+RUNNER = ROOT / "target" / "release" / "aem-run"
+AEM_STUDY = [str(ROOT / ".venv" / "bin" / "python"), "-m", "study"]
+#: kg per normal litre of hydrogen: M(H2) / V_m(0 °C, 1 atm) = 2.01588 g/mol / 22.413969545 l/mol.
+KG_PER_NL = 2.01588e-3 / 22.413969545014137
+#: Two sequential-dispatch cases (sequential needs standby or off below the minimum).
+MODES = """
+[axes.mode]
+equal = { dispatch = "equal", belowMinimum = "stayAtMinimum" }
+sequential = { dispatch = "sequential", belowMinimum = "standby" }
+"""
+
+
+@pytest.fixture(scope="module", autouse=True)
+def runner_built(fmu_path):
+    if not RUNNER.is_file():
+        pytest.fail(f"{RUNNER} not found: cargo build --release --bins")
+
+
+def write_study(folder, body, fmu_path):
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "study.toml"
+    path.write_text(f'[study]\ntitle = "test"\nfmu = "{fmu_path}"\n' + body)
+    return path
+
+
+def run_study(path, out, **kwargs):
+    study = Study(path)
+    records = engine.run(study, out, runner=RUNNER, **kwargs)
+    return study, table(study.scenarios(), study.axis_columns, records)
+
+
+def kpi_values(frame):
+    return frame[list(KPIS)].to_numpy(dtype=float)
+
+
+def test_constant_power_gives_the_closed_form_kpis(tmp_path, fmu_path):
+    n, hub_power, hours = 400, 0.8e6, 2.0           # 2 kW per module: inside 60…100 %
+    (tmp_path / "flat.csv").write_text(f"time [s],power [kW]\n0,{hub_power / 1e3}\n{hours * 3600},{hub_power / 1e3}\n")
+    path = write_study(tmp_path, f"""horizon = "{hours} h"
+[parameters]
+nModules = {n}
+[series.flat]
+file = "flat.csv"
+column = "power [kW]"
+""", fmu_path)
+    _, frame = run_study(path, tmp_path / "out", serial=True)
+    row = frame.iloc[0]
+    assert row["status"] == "done", row["message"]
+    t = hours * 3600.0
+    current = PAPER["gain"] * setpoint_for(hub_power / n)          # A per module
+    rated = n * module_power(PAPER["maxSetpoint"])
+    expected = {
+        "modules [1]": n,
+        "horizon [h]": hours,
+        "reference energy [MWh]": hub_power * t / 3.6e9,
+        "energy drawn [MWh]": hub_power * t / 3.6e9,                 # E = P t
+        "hydrogen [kg]": n * PAPER["h2Coefficient"] * current * hours * KG_PER_NL,  # c I t
+        "hub rated power [MW]": rated / 1e6,
+        "full-load hours [h]": hub_power * hours / rated,
+        "wind not absorbed [MWh]": 0.0,
+        "grid import [MWh]": 0.0,
+        "starts per module [1]": 0.0,
+        "running hours per module [h]": hours,
+        "rms tracking error [MW]": 0.0,
+    }
+    for name, value in expected.items():
+        assert row[name] == pytest.approx(value, rel=1e-9, abs=1e-9), name
+    assert row["specific energy [kWh/kg]"] == pytest.approx(
+        expected["energy drawn [MWh]"] * 1e3 / expected["hydrogen [kg]"], rel=1e-9)
+
+
+def test_a_setpoint_series_drives_the_setpoint_and_has_no_wind_kpis(tmp_path, fmu_path):
+    (tmp_path / "sp.csv").write_text("time,setpoint [%]\n2026-01-01T00:00:00Z,80\n2026-01-01T01:00:00Z,80\n")
+    path = write_study(tmp_path, """horizon = "2 h"
+[parameters]
+nModules = 10
+[series.sp]
+file = "sp.csv"
+time = "time"
+column = "setpoint [%]"
+""", fmu_path)
+    _, frame = run_study(path, tmp_path / "out", serial=True)
+    row = frame.iloc[0]
+    assert row["status"] == "done", row["message"]
+    current = PAPER["gain"] * 80.0
+    assert row["hydrogen [kg]"] == pytest.approx(10 * PAPER["h2Coefficient"] * current * 2 * KG_PER_NL, rel=1e-9)
+    assert row["energy drawn [MWh]"] == pytest.approx(10 * module_power(80.0) * 7200 / 3.6e9, rel=1e-9)
+    assert math.isnan(row["wind not absorbed [MWh]"]) and math.isnan(row["rms tracking error [MW]"])
+
+
+def test_file_series_are_held_or_interpolated_to_the_step():
+    times = np.array([0.0, 900.0, 1800.0])
+    values = np.array([10.0, 20.0, 40.0])
+    definition = {"kind": "file", "interpolation": "hold", "error": None}
+    held = reference(definition, 300.0, 2700.0, (times, values))
+    assert held.tolist() == [10, 10, 10, 20, 20, 20, 40, 40, 40]
+    linear = reference({**definition, "interpolation": "linear"}, 300.0, 2700.0, (times, values))
+    assert linear.tolist() == pytest.approx([10, 10 + 10 / 3, 10 + 20 / 3, 20, 20 + 20 / 3, 20 + 40 / 3, 40, 40, 40])
+    with pytest.raises(ValueError, match="covers 0.75 h, the horizon is 1 h"):
+        reference(definition, 300.0, 3600.0, (times, values))
+
+
+WIND_STUDY = """horizon = "1 h"
+[series.wind]
+generator = "wind"
+[axes]
+seed = [1, 2]
+hub_size = [50, 90]
+""" + MODES
+
+
+def test_the_cluster_gives_the_serial_kpis_bit_for_bit(tmp_path, fmu_path):
+    path = write_study(tmp_path, WIND_STUDY, fmu_path)
+    _, serial = run_study(path, tmp_path / "serial", serial=True)
+    _, one = run_study(path, tmp_path / "one", workers=1)
+    _, two = run_study(path, tmp_path / "two", workers=2)
+    assert len(serial) == 8 and (serial["status"] == "done").all(), serial["message"].tolist()
+    assert serial["modules [1]"].tolist() == [
+        round(s / 100 * 64e6 / module_power(PAPER["maxSetpoint"])) for _ in (1, 2) for s in (50, 90) for _ in (1, 2)]
+    for frame in (one, two):
+        assert frame["scenario"].tolist() == serial["scenario"].tolist()
+        np.testing.assert_array_equal(kpi_values(frame), kpi_values(serial))
+    assert two["worker"].nunique() == 2, "both worker processes ran scenarios"
+    # Conservation per scenario: offered = drawn + not absorbed − imported (per step, net).
+    balance = serial["energy drawn [MWh]"] + serial["wind not absorbed [MWh]"] - serial["grid import [MWh]"]
+    np.testing.assert_allclose(balance, serial["reference energy [MWh]"], rtol=1e-12)
+    # The sequential hub switches modules, the equal one never stops any.
+    assert (serial[serial["mode"] == "equal"]["starts per module [1]"] == 0).all()
+    assert (serial[serial["mode"] == "sequential"]["starts per module [1]"] > 0).all()
+
+
+def test_a_refused_parameter_and_a_bad_series_fail_alone(tmp_path, fmu_path):
+    (tmp_path / "bad.csv").write_text("time [s],power [MW]\n0,10\n1,ten\n2,10\n")
+    (tmp_path / "good.csv").write_text("time [s],power [MW]\n0,1\n600,1\n")
+    path = write_study(tmp_path, """horizon = "10 min"
+[parameters]
+nModules = 500
+[series.good]
+file = "good.csv"
+column = "power [MW]"
+[series.bad]
+file = "bad.csv"
+column = "power [MW]"
+[axes]
+series = ["good", "bad"]
+hysteresis = [-1, 5]
+""", fmu_path)
+    done = subprocess.run(AEM_STUDY + [str(path), "--out", str(tmp_path / "out"), "--workers", "2", "--no-plots"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 1, done.stderr
+    frame = pd.read_parquet(tmp_path / "out" / "kpis.parquet")
+    status = dict(zip(zip(frame["series"], frame["hysteresis [%]"]), zip(frame["status"], frame["message"])))
+    assert status[("good", 5.0)][0] == "done"
+    assert status[("good", -1.0)][0] == "failed"
+    assert "hysteresis = -1 is invalid" in status[("good", -1.0)][1], "the FMU's own message"
+    for h in (-1.0, 5.0):
+        assert status[("bad", h)][0] == "failed" and "row 2: the value is not a number" in status[("bad", h)][1]
+    summary = (tmp_path / "out" / "summary.txt").read_text()
+    assert "hysteresis = -1 is invalid" in summary and done.stdout.startswith(summary.splitlines()[0])
+
+
+def test_study_file_mistakes_stop_before_anything_runs(tmp_path, fmu_path):
+    for body, said in [
+        ('[series.w]\ngenerator = "wind"\n[axes]\nhysterisis = [1]\n', "no parameter 'hysterisis'"),
+        ('[series.w]\ngenerator = "wind"\n[axes]\ndispatch = ["equally"]\n', "one of equal, sequential, rotation"),
+        ('[series.w]\ngenerator = "wind"\n[parameters]\nnModules = 2.5\n', "is not an Integer"),
+        ('[series.w]\ngenerator = "wind"\n[parameters]\npowerInput = true\n', "set by aem-study"),
+        ('[axes]\nseed = [1]\n', "no [series.NAME] table"),
+    ]:
+        path = write_study(tmp_path, body, fmu_path)
+        done = subprocess.run(AEM_STUDY + [str(path), "--serial"], capture_output=True, text=True, timeout=60)
+        assert done.returncode == 2 and said in done.stderr, (body, done.stderr)
+
+
+SLOW_STUDY = """horizon = "6 h"
+[parameters]
+nModules = 25000
+dispatch = "sequential"
+belowMinimum = "standby"
+[series.wind]
+generator = "wind"
+[axes]
+seed = [1, 2, 3, 4, 5, 6]
+"""
+
+
+def stored(out):
+    folder = out / "scenarios"
+    return {p.name: p.stat().st_mtime_ns for p in folder.glob("*.json")} if folder.exists() else {}
+
+
+def wait_for(condition, what, timeout=120):
+    end = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < end, f"timed out waiting for {what}"
+        time.sleep(0.05)
+
+
+def children(pid):
+    """Every descendant process id of `pid` (from /proc)."""
+    out, todo = [], [pid]
+    while todo:
+        parent = todo.pop()
+        for task in os.listdir(f"/proc/{parent}/task"):
+            try:
+                kids = open(f"/proc/{parent}/task/{task}/children").read().split()
+            except FileNotFoundError:
+                continue
+            out += [int(k) for k in kids]
+            todo += [int(k) for k in kids]
+    return out
+
+
+def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
+    path = write_study(tmp_path, SLOW_STUDY, fmu_path)
+    out = tmp_path / "out"
+    first = subprocess.Popen(AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    wait_for(lambda: len(stored(out)) >= 2, "two stored scenarios")
+    first.send_signal(signal.SIGINT)
+    _, err = first.communicate(timeout=60)
+    assert first.returncode == 130 and "run again to resume" in err, err
+    before = stored(out)
+    assert 2 <= len(before) < 6
+    second = subprocess.run(AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
+                            capture_output=True, text=True, timeout=300)
+    assert second.returncode == 0, second.stderr
+    ran = [line for line in second.stderr.splitlines() if line.startswith("[finished")]
+    assert len(ran) == 6 - len(before), "only the missing scenarios ran"
+    after = stored(out)
+    assert len(after) == 6 and all(after[name] == mtime for name, mtime in before.items())
+    third = subprocess.run(AEM_STUDY + [str(path), "--out", str(out), "--serial", "--no-plots"],
+                           capture_output=True, text=True, timeout=60)
+    assert third.returncode == 0 and "[finished" not in third.stderr and stored(out) == after
+
+
+def test_a_killed_worker_loses_nothing(tmp_path, fmu_path):
+    path = write_study(tmp_path, SLOW_STUDY, fmu_path)
+    out = tmp_path / "out"
+    study = subprocess.Popen(AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    wait_for(lambda: len(stored(out)) >= 1, "a stored scenario")
+    runners = lambda: [p for p in children(study.pid)  # noqa: E731
+                       if "aem-run" in open(f"/proc/{p}/cmdline", "rb").read().decode(errors="replace")]
+    wait_for(lambda: runners(), "a running aem-run")
+    worker = next(p for p in children(study.pid) if runners()[0] in children(p) and
+                  "aem-run" not in open(f"/proc/{p}/cmdline", "rb").read().decode(errors="replace"))
+    os.kill(worker, signal.SIGKILL)           # the worker process running a scenario, mid-scenario
+    stdout, stderr = study.communicate(timeout=300)
+    assert study.returncode == 0, stderr
+    records = [json.loads(p.read_text()) for p in (out / "scenarios").glob("*.json")]
+    assert len(records) == 6 and {r["status"] for r in records} == {"done"}
+    first = pd.read_parquet(out / "kpis.parquet")
+    again = subprocess.run(AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
+                           capture_output=True, text=True, timeout=120)
+    assert again.returncode == 0 and "[finished" not in again.stderr
+    second = pd.read_parquet(out / "kpis.parquet")
+    np.testing.assert_array_equal(kpi_values(first), kpi_values(second))
+    assert len(second) == 6
