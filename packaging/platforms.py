@@ -8,10 +8,10 @@
 
 `build(platform, cargo_args)` runs the build and returns the release directory that holds its
 outputs (packaging/package.py builds the FMU's library with it). As a command it builds the
-identification tool for users of each platform:
+identification tool and aem-study's native master for users of each platform:
 
-    python packaging/platforms.py aem-identify [--platforms win64]
-        -> target/dist/<platform>/aem-identify[.exe]
+    python packaging/platforms.py aem-identify|aem-run [--platforms win64]
+        -> target/dist/<platform>/aem-identify[.exe], aem-run[.exe]
 
 Build times go to stderr; the output paths are checked for writing before anything is built.
 
@@ -125,7 +125,7 @@ def build(platform, cargo_args, extra_env=None):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description="Build a command of the workspace for each platform.")
-    parser.add_argument("tool", choices=["aem-identify"], help="the command to build")
+    parser.add_argument("tool", choices=["aem-identify", "aem-run"], help="the command to build")
     parser.add_argument("--platforms", default=",".join(PLATFORMS), help="comma-separated FMI platforms")
     args = parser.parse_args(argv)
     names = [p.strip() for p in args.platforms.split(",") if p.strip()]

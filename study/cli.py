@@ -31,7 +31,8 @@ def main(argv=None):
     where.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per core)")
     where.add_argument("--scheduler", help="address of an existing Dask scheduler, e.g. tcp://HOST:8786")
     where.add_argument("--serial", action="store_true", help="run in this process, no Dask")
-    parser.add_argument("--runner", type=Path, default=engine.DEFAULT_RUNNER, help="the aem-run binary to ship")
+    parser.add_argument("--runner", type=Path, help="the aem-run binary to ship to workers of this platform "
+                        "(default: target/dist's portable builds and target/release's)")
     parser.add_argument("--retry-failed", action="store_true", help="run failed scenarios again")
     parser.add_argument("--no-plots", action="store_true")
     parser.add_argument("--list", action="store_true", help="list the scenarios and whether they are stored")

@@ -17,18 +17,34 @@ from .store import Store
 from .worker import Bundle, run_scenario, this_platform
 
 ROOT = Path(__file__).resolve().parent.parent
-DEFAULT_RUNNER = ROOT / "target" / "release" / "aem-run"
+DEFAULT_RUNNER = ROOT / "target" / "release" / ("aem-run.exe" if os.name == "nt" else "aem-run")
+#: Portable builds (packaging/platforms.py aem-run) shipped to workers of these platforms:
+#: glibc 2.17 runs on old Linux clusters, the .exe on Windows workers.
+PORTABLE_RUNNERS = {"linux-x86_64": ROOT / "target" / "dist" / "linux64" / "aem-run",
+                    "windows-amd64": ROOT / "target" / "dist" / "win64" / "aem-run.exe"}
 
 
-def bundle(study, runner: Path):
-    """What the workers need of `study`, with the runner for this platform."""
-    if not runner.is_file():
-        raise FileNotFoundError(f"no aem-run at {runner} (build it: cargo build --release -p aem-run)")
-    return Bundle(fmu=study.fmu_bytes, runners={this_platform(): runner.read_bytes()},
-                  files=dict(study.files), series=study.file_series_data())
+def runners(runner=None):
+    """Platform -> aem-run's bytes: `runner` for this platform if given; else the portable
+    builds that exist and this machine's release build for its own platform."""
+    if runner is not None:
+        found = {this_platform(): Path(runner)}
+    else:
+        found = {name: path for name, path in PORTABLE_RUNNERS.items() if path.is_file()}
+        found.setdefault(this_platform(), DEFAULT_RUNNER)
+    for path in found.values():
+        if not path.is_file():
+            raise FileNotFoundError(f"no aem-run at {path} (build it: cargo build --release -p aem-run)")
+    return {name: path.read_bytes() for name, path in found.items()}
 
 
-def run(study, out_dir, *, scheduler=None, workers=None, serial=False, runner=DEFAULT_RUNNER,
+def bundle(study, runner=None):
+    """What the workers need of `study`: the FMU, the runners, files and series."""
+    return Bundle(fmu=study.fmu_bytes, runners=runners(runner), files=dict(study.files),
+                  series=study.file_series_data())
+
+
+def run(study, out_dir, *, scheduler=None, workers=None, serial=False, runner=None,
         retry_failed=False, stream=None):
     """Runs what is missing; returns {key: record} of every scenario of the study that has one."""
     store = Store(out_dir)
@@ -42,7 +58,7 @@ def run(study, out_dir, *, scheduler=None, workers=None, serial=False, runner=DE
     progress = Progress(len(scenarios), len(records), **({"stream": stream} if stream else {}))
     try:
         if todo:
-            payload = bundle(study, Path(runner))
+            payload = bundle(study, runner)
             if serial:
                 _run_serial(todo, payload, store, records, progress)
             else:

@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """A seeded year (or any duration) of 1 s (or any dt) power of the 64 MW offshore wind farm of
 examples/wind_farm.py, for year-long hub studies: each Dask worker regenerates it from
-(duration, dt, seed, climate), bit for bit (same numpy), in about a quarter of a GB.
+(duration, dt, seed, climate), bit for bit with the same numpy and scipy (on x86, the same
+SIMD level too: numpy's AVX-512 kernels of pow/exp/cos may differ in the last bit; AVX2 and
+the SSE baseline agree), using about a quarter of a GB beyond the interpreter for a year.
 
     python study/wind_year.py [--days 365] [--seed 1] [--dt 1] [--out out/wind_year.png]
 
 Model (every number is a default field of `WindClimate`; time t = 0 is 1 January 00:00):
 
-* Hourly mean hub-height wind V_h, hour h covering [h, h+1) h. A Gaussian AR(1) process
+* Hourly mean hub-height wind V_h of hour h, [3600 h, 3600 (h+1)) s. A Gaussian AR(1) process
   z_h = φ z_(h-1) + √(1-φ²) ε_h (unit variance, z_0 ~ N(0,1)) gives persistence; it is mapped to
   a Weibull marginal, U = Φ(z_h), V_h = c(t_h) (-ln(1-U))^(1/k), evaluated as
   c (-ln Φ(-z))^(1/k) (scipy.special.log_ndtr, exact in the tails), at the hour's midpoint t_h
@@ -17,17 +19,18 @@ Model (every number is a default field of `WindClimate`; time t = 0 is 1 January
   fits to a data set: k = 2.2, an offshore-typical shape; φ = 0.975 per hour (correlation
   0.55 after a day, e-folding time 40 h, the synoptic scale); a_s = 0.18 with the maximum on
   16 January (monthly means about 11.8 m/s in January, 8.2 m/s in July, the North Sea's
-  winter/summer contrast); a_d = 0.02 with the maximum at 18 h, because over the sea the
-  surface hardly follows the daily cycle of heating.
+  winter/summer contrast); a_d = 0.02, small because the sea surface hardly follows the
+  daily cycle of heating, with the maximum at 18 h.
 * 1 s wind at turbine i: V(t) (1 + TI u_i(t)), V(t) the hourly means interpolated linearly
-  between hour midpoints (held before the first), TI = 8 %. u_i is the turbulence of
-  examples/wind_farm.py (Kaimal spectrum, Davenport coherence between turbines) normalised
-  to unit standard deviation and passed through its rotor filter τ = D/(2V). It is
+  between hour midpoints (held before the first; an hour's mean of V(t) is
+  V_(h-1)/8 + 3 V_h/4 + V_(h+1)/8), TI = 8 %. u_i is the turbulence of examples/wind_farm.py
+  (Kaimal spectrum, Davenport coherence between turbines; each record scaled to σ exactly)
+  normalised to unit standard deviation and passed through its rotor filter τ = D/(2V). It is
   synthesised in records ("chunks") of 3 h + 12 min overlap, each at the record's mean wind
-  (the Kaimal time scale L/V follows the weather) from its own seed; a record's circular FFT
-  synthesis and its circular rotor filter make it periodic, so consecutive records are
-  blended over the overlap with weights cos and sin of π/2·s (cos² + sin² = 1: the
-  variance is kept and nothing jumps). Power = Σ_i power_curve(speed_i), the 8 MW curve.
+  (the Kaimal time scale L/V follows the weather) from its own seed. Records are independent
+  and periodic (circular FFT synthesis, circular rotor filter), so consecutive ones are
+  blended over the overlap, s = 0 … 1, with weights cos(πs/2) and sin(πs/2) (cos² + sin² = 1
+  keeps the variance; nothing jumps). Power = Σ_i power_curve(speed_i), the 8 MW curve.
 * Seeds: SeedSequence(seed) with spawn key (0,) for the hourly process and (1, j) for
   record j, i.e. SeedSequence(seed).spawn(2)[a].spawn(...)[j]. Records start at multiples of
   round(chunk/dt) samples and are always synthesised whole, so a shorter run is the start of
@@ -79,7 +82,7 @@ def _seeds(seed, *key):
     return np.random.SeedSequence(seed, spawn_key=key)
 
 
-def weibull_scale(t, climate=WindClimate()):
+def weibull_scale_at(t, climate=WindClimate()):
     """c(t) = c0 (1 + a_s cos 2π(day - day_peak)/365.25)(1 + a_d cos 2π(hour - hour_peak)/24)
     [m/s] at times t [s] after 1 January 00:00."""
     day, hour = t / DAY, (t % DAY) / HOUR
@@ -89,14 +92,14 @@ def weibull_scale(t, climate=WindClimate()):
 
 
 def hourly_mean_wind(hours, seed=1, climate=WindClimate()):
-    """V_h = c(t_h) (-ln Φ(-z_h))^(1/k) [m/s] for hours h = 0 … hours-1, t_h = (h + ½) h;
+    """V_h = c(t_h) (-ln Φ(-z_h))^(1/k) [m/s] for hours h = 0 … hours-1, t_h = (h + ½) 3600 s;
     z_h = φ z_(h-1) + √(1-φ²) ε_h, z_0 = ε_0. A shorter run is the start of a longer one."""
     phi = climate.persistence
     eps = np.random.default_rng(_seeds(seed, 0)).standard_normal(int(hours))
     eps[1:] *= math.sqrt(1.0 - phi * phi)
     z = lfilter([1.0], [1.0, -phi], eps)
     t = (np.arange(int(hours)) + 0.5) * HOUR
-    return weibull_scale(t, climate) * (-log_ndtr(-z)) ** (1.0 / climate.weibull_shape)
+    return weibull_scale_at(t, climate) * (-log_ndtr(-z)) ** (1.0 / climate.weibull_shape)
 
 
 def _synthesise(duration, dt, seed, climate, emit, threads, rotor_filter=True):
@@ -110,7 +113,7 @@ def _synthesise(duration, dt, seed, climate, emit, threads, rotor_filter=True):
     chunks = -(-n // m)
     hours = math.ceil((chunks * m + o) * dt / HOUR) + 1
     midpoints, hourly = (np.arange(hours) + 0.5) * HOUR, hourly_mean_wind(hours, seed, climate)
-    ramp = (np.arange(o) + 0.5) / o * (np.pi / 2.0) if o else np.empty(0)
+    ramp = (np.arange(o) + 0.5) / max(o, 1) * (np.pi / 2.0)  # s of the blend, as an angle
     fade_out, fade_in = np.cos(ramp), np.sin(ramp)
     ti, diameter = climate.turbulence_intensity, Turbine().rotor_diameter
 

@@ -67,7 +67,7 @@ def run_scenario(key: str, definition: dict, bundle: Bundle) -> dict:
         if runner is None:
             raise SeriesError(f"no aem-run for this worker's platform {this_platform()} "
                               f"(the client has {', '.join(bundle.runners)})")
-        args = [str(_materialise(runner, "-aem-run", executable=True)),
+        args = [str(_materialise(runner, "-aem-run.exe" if os.name == "nt" else "-aem-run", executable=True)),
                 "--fmu", str(_materialise(bundle.fmu, ".fmu")),
                 "--step", repr(definition["step [s]"]), "--input", definition["input"]]
         for name, value in definition["parameters"].items():

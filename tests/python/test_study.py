@@ -19,7 +19,7 @@ import pytest
 from conftest import PAPER, ROOT, module_power, setpoint_for
 
 sys.path.insert(0, str(ROOT))
-from study import engine  # noqa: E402
+from study import cli, engine  # noqa: E402
 from study.definition import Study  # noqa: E402
 from study.kpis import KPIS  # noqa: E402
 from study.series import reference  # noqa: E402
@@ -186,7 +186,7 @@ hysteresis = [-1, 5]
     assert "hysteresis = -1 is invalid" in summary and done.stdout.startswith(summary.splitlines()[0])
 
 
-def test_study_file_mistakes_stop_before_anything_runs(tmp_path, fmu_path):
+def test_study_file_mistakes_stop_before_anything_runs(tmp_path, fmu_path, capsys):
     for body, said in [
         ('[series.w]\ngenerator = "wind"\n[axes]\nhysterisis = [1]\n', "no parameter 'hysterisis'"),
         ('[series.w]\ngenerator = "wind"\n[axes]\ndispatch = ["equally"]\n', "one of equal, sequential, rotation"),
@@ -195,8 +195,9 @@ def test_study_file_mistakes_stop_before_anything_runs(tmp_path, fmu_path):
         ('[axes]\nseed = [1]\n', "no [series.NAME] table"),
     ]:
         path = write_study(tmp_path, body, fmu_path)
-        done = subprocess.run(AEM_STUDY + [str(path), "--serial"], capture_output=True, text=True, timeout=60)
-        assert done.returncode == 2 and said in done.stderr, (body, done.stderr)
+        assert cli.main([str(path), "--serial", "--out", str(tmp_path / "out")]) == 2, body
+        err = capsys.readouterr().err
+        assert said in err and not (tmp_path / "out").exists(), (body, err)
 
 
 SLOW_STUDY = """horizon = "6 h"
