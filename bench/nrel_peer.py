@@ -87,9 +87,15 @@ def main():
                         help="simulated horizon (default the full day, 20 min or more here); < 24 extrapolates "
                              "to a day, a lower bound")
     parser.add_argument("--control", default="DecisionControl", help="the Supervisor's control_type")
+    parser.add_argument("--reference", type=Path,
+                        help="the plant's power reference [W] at 1 s, little-endian f64 (bench/study_bench.py "
+                             "gives its wind year); default bench/wind_reference.py's day")
     args = parser.parse_args()
     n = int(round(args.hours * 3600))
-    reference = wind_reference(DAY, PLANT_MW * 1e6)[:n]
+    if args.reference:
+        reference = np.fromfile(args.reference, dtype="<f8", count=n)
+    else:
+        reference = wind_reference(DAY, PLANT_MW * 1e6)[:n]
 
     elec, stack = plant(args.control, reference[0])
     print(f"NREL electrolyzer {version()}: {elec.n_stacks} PEM stacks of {elec.stack_rating_kW:.1f} kW "

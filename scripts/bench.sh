@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # Benchmarks (printed figures): the Rust model and C ABI in process, then fmpy and the
-# Python/SciPy peer in the same run, and the NREL electrolyzer package as peer of the hub.
+# Python/SciPy peer in the same run, and the NREL electrolyzer package as peer of the hub; last,
+# aem-study's year-long scenarios against the FMU's C interface and the NREL peer.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 .venv/bin/python packaging/package.py
+cargo build --release --locked -p aem-run
 echo "== Rust (cargo bench --bench model_step) on $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs), $(nproc) cores"
 cargo bench --locked --bench model_step -- --json target/bench/rust.json
 echo "== fmpy and Python/SciPy"
@@ -19,3 +21,5 @@ bash bench/identify_bench.sh
 echo "== prequalification of the 25 000-module hub: every product, plain and compensated, with bisection"
 .venv/bin/python -m reserves.prequalify --modules 25000 --dispatch equal --baseline 80 --compensation both \
   --no-plots --out target/bench/prequalification | tail -1
+echo "== aem-study: a year at 1 s of the 60 MW hub per scenario, scenarios per hour serial and on a LocalCluster, the NREL peer"
+.venv/bin/python bench/study_bench.py

@@ -91,13 +91,14 @@ def _client(scheduler, workers):
 
 
 def _package_zip():
-    """The study package (and the wind-farm model it imports) as a zip Dask sends to the
+    """The study package (and the wind-farm model and helpers it imports) as a zip Dask sends to the
     workers of an existing cluster, which may not have this repository."""
     handle, archive = tempfile.mkstemp(prefix="aem-study-", suffix=".zip")
     with os.fdopen(handle, "wb") as f, zipfile.ZipFile(f, "w") as z:
         for file in sorted((ROOT / "study").glob("*.py")):
             z.write(file, f"study/{file.name}")
         z.write(ROOT / "examples" / "wind_farm.py", "wind_farm.py")
+        z.write(ROOT / "scripts" / "command_line.py", "command_line.py")
     return archive
 
 

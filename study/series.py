@@ -118,7 +118,8 @@ def reference(series_definition, step, horizon, data=None):
     steps = round(horizon / step)
     if series_definition["kind"] == "generated wind":
         climate = WindClimate(**series_definition["climate"])
-        return farm_power_year(steps * step, dt=step, seed=series_definition["seed"], climate=climate)
+        # One thread: a Dask worker has one core (the result does not depend on it).
+        return farm_power_year(steps * step, dt=step, seed=series_definition["seed"], climate=climate, threads=1)
     if series_definition.get("error"):
         raise SeriesError(series_definition["error"])
     times, values = data
