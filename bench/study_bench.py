@@ -14,7 +14,7 @@
    on the first --nrel-hours of the same wind year, extrapolated to the year: a lower bound,
    as its per-step cost grows with simulated time.
 
-    .venv/bin/python bench/study_bench.py [--days-per-scenario 14] [--scenarios 6] [--nrel-hours 1]
+    .venv/bin/python bench/study_bench.py [--days-per-scenario 60] [--scenarios 4] [--nrel-hours 1]
 """
 import argparse
 import json
@@ -89,8 +89,8 @@ def aem_run_seconds(reference):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--days-per-scenario", type=int, default=14)
-    parser.add_argument("--scenarios", type=int, default=6)
+    parser.add_argument("--days-per-scenario", type=int, default=60)
+    parser.add_argument("--scenarios", type=int, default=4)
     parser.add_argument("--nrel-hours", type=float, default=1.0)
     args = parser.parse_args()
     OUT.mkdir(parents=True, exist_ok=True)
@@ -117,13 +117,19 @@ def main():
               f"{per_day * 365:.0f} s/year; aem-study/C interface: {wall / (per_day * 365):.2f} "
               f"(target <= 1.5); aem-run on that benchmark's day: {seconds:.3f} s, ratio {seconds / per_day:.2f}")
 
+    from distributed import LocalCluster
+    started = time.perf_counter()
+    with LocalCluster(n_workers=cores, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None):
+        pass
+    cluster_start = time.perf_counter() - started
     throughput = study_file("throughput", args.days_per_scenario, range(1, args.scenarios + 1))
     serial, _ = timed_run(throughput, OUT / "throughput-serial", serial=True)
     cluster, records = timed_run(throughput, OUT / "throughput-cluster", workers=cores)
     workers = len({r["worker"] for r in records.values()})
     n = args.scenarios
     print(f"{n} scenarios of {args.days_per_scenario} days: serial {serial:.1f} s ({n / serial * 3600:.0f} "
-          f"scenarios/h), LocalCluster of {cores} worker processes {cluster:.1f} s incl. its start "
+          f"scenarios/h), LocalCluster of {cores} worker processes {cluster:.1f} s incl. its start and stop "
+          f"({cluster_start:.1f} s alone) "
           f"({n / cluster * 3600:.0f} scenarios/h, {workers} workers ran scenarios): speed-up {serial / cluster:.2f} "
           f"on {cores} cores; year-long scenarios: {3600 / wall:.0f}/h serial, "
           f"{3600 / wall * serial / cluster:.0f}/h on the LocalCluster")
