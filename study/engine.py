@@ -69,11 +69,11 @@ def run(study, out_dir, *, scheduler=None, workers=None, serial=False, runner=No
 
 
 def _run_serial(todo, payload, store, records, progress):
-    for s in todo:
+    for i, s in enumerate(todo):
         record = run_scenario(s.key, s.definition, payload)
         store.put(record)
         records[s.key] = record
-        progress.finished(record, 0, s.labels)
+        progress.finished(record, 1 if i + 1 < len(todo) else 0, s.labels)
 
 
 @contextlib.contextmanager

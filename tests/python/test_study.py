@@ -7,6 +7,7 @@ contents for stopped, resumed and worker-killed studies."""
 import json
 import math
 import os
+import pickle
 import signal
 import subprocess
 import sys
@@ -24,6 +25,7 @@ from study.definition import Study  # noqa: E402
 from study.kpis import KPIS  # noqa: E402
 from study.series import reference  # noqa: E402
 from study.table import table  # noqa: E402
+from study.worker import run_scenario  # noqa: E402
 
 RUNNER = ROOT / "target" / "release" / "aem-run"
 AEM_STUDY = [str(ROOT / ".venv" / "bin" / "python"), "-m", "study"]
@@ -285,3 +287,74 @@ def test_a_killed_worker_loses_nothing(tmp_path, fmu_path):
     second = pd.read_parquet(out / "kpis.parquet")
     np.testing.assert_array_equal(kpi_values(first), kpi_values(second))
     assert len(second) == 6
+
+
+SMALL_WIND = """horizon = "20 min"
+[parameters]
+nModules = 2000
+[series.wind]
+generator = "wind"
+[axes]
+seed = [3, 4]
+""" + MODES
+
+
+def test_the_package_zip_runs_a_scenario_without_this_repository(tmp_path, fmu_path):
+    """What a worker of an existing cluster gets (the uploaded zip, the bundle) is all it needs:
+    a fresh interpreter that cannot see this checkout imports the study package from the zip
+    and gives the serial KPIs."""
+    study = Study(write_study(tmp_path, SMALL_WIND, fmu_path))
+    scenario = study.scenarios()[1]
+    payload = engine.bundle(study, RUNNER)
+    expected = run_scenario(scenario.key, scenario.definition, payload)
+    assert expected["status"] == "done", expected["message"]
+    archive = engine._package_zip()
+    try:
+        job = tmp_path / "job.pickle"
+        job.write_bytes(pickle.dumps((scenario.key, scenario.definition, payload)))
+        code = f"""
+import json, pickle, sys
+sys.meta_path = [f for f in sys.meta_path if "__editable__" not in getattr(f, "__module__", "")]
+sys.path = [p for p in sys.path if p not in ("", {str(ROOT)!r})]
+sys.path.insert(0, {archive!r})
+from study.worker import run_scenario
+import study.worker, wind_farm
+assert study.worker.__file__.startswith({archive!r}) and wind_farm.__file__.startswith({archive!r})
+print(json.dumps(run_scenario(*pickle.loads(open({str(job)!r}, "rb").read()))))
+"""
+        done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+        assert json.loads(done.stdout)["kpis"] == expected["kpis"]
+    finally:
+        os.unlink(archive)
+
+
+def test_an_existing_cluster_runs_the_study_as_the_serial_run(tmp_path, fmu_path):
+    """`--scheduler`: a `dask scheduler` and a `dask worker` of two processes on the loopback."""
+    path = write_study(tmp_path, SMALL_WIND, fmu_path)
+    _, serial = run_study(path, tmp_path / "serial", serial=True)
+    dask = str(ROOT / ".venv" / "bin" / "dask")
+    address_file = tmp_path / "scheduler.json"
+    quiet = dict(stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path)
+    scheduler = subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                                  "--scheduler-file", str(address_file)], **quiet)
+    worker = None
+    try:
+        wait_for(address_file.is_file, "the scheduler's address", timeout=60)
+        worker = subprocess.Popen([dask, "worker", "--scheduler-file", str(address_file), "--nworkers", "2",
+                                   "--nthreads", "1", "--no-dashboard"], **quiet)
+        address = json.loads(address_file.read_text())["address"]
+        done = subprocess.run(AEM_STUDY + [str(path), "--out", str(tmp_path / "cluster"), "--scheduler", address,
+                                           "--no-plots"], capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr
+    finally:
+        for process in (worker, scheduler):
+            if process is not None:
+                process.send_signal(signal.SIGINT)
+                try:
+                    process.wait(timeout=30)
+                except subprocess.TimeoutExpired:
+                    process.kill()
+    cluster = pd.read_parquet(tmp_path / "cluster" / "kpis.parquet")
+    assert cluster["scenario"].tolist() == serial["scenario"].tolist()
+    np.testing.assert_array_equal(kpi_values(cluster), kpi_values(serial))
