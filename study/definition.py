@@ -62,6 +62,12 @@ def scenario_key(definition):
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
+def _known(table, keys, where):
+    unknown = set(table) - keys
+    if unknown:
+        raise ValueError(f"{where}: unknown keys {sorted(unknown)}; known: {sorted(keys)}")
+
+
 class Study:
     """A study file read and checked: its series, its fixed parameters and its axes."""
 
@@ -74,6 +80,7 @@ class Study:
         if unknown:
             raise ValueError(f"{self.path}: unknown tables {sorted(unknown)}")
         head = doc.get("study", {})
+        _known(head, {"title", "fmu", "horizon", "step"}, "[study]")
         self.title = head.get("title", self.path.stem)
         self.fmu = (here / head["fmu"]).resolve() if "fmu" in head else DEFAULT_FMU
         if not self.fmu.is_file():
@@ -102,9 +109,14 @@ class Study:
     def _series(self, name, spec, here):
         spec = dict(spec)
         if spec.pop("generator", None) == "wind":
-            return GeneratedWind(name, spec.pop("climate", {}))
+            _known(spec, {"climate"}, f"[series.{name}]")
+            try:
+                return GeneratedWind(name, spec.pop("climate", {}))
+            except TypeError as e:
+                raise ValueError(f"series {name}: climate: {e}") from None
         if "file" not in spec:
             raise ValueError(f"series {name}: give generator = \"wind\" or file = ...")
+        _known(spec, {"file", "time", "column", "interpolation", "rating"}, f"[series.{name}]")
         rating = spec.pop("rating", None)
         series = SeriesFile(name, here / spec.pop("file"), **spec)
         if rating is not None:

@@ -195,6 +195,8 @@ def test_study_file_mistakes_stop_before_anything_runs(tmp_path, fmu_path, capsy
         ('[series.w]\ngenerator = "wind"\n[parameters]\nnModules = 2.5\n', "is not an Integer"),
         ('[series.w]\ngenerator = "wind"\n[parameters]\npowerInput = true\n', "set by aem-study"),
         ('[axes]\nseed = [1]\n', "no [series.NAME] table"),
+        ('[series.w]\ngenerator = "wind"\nclimate = { mean_sped = 9 }\n', "mean_sped"),
+        ('[series.f]\nfile = "x.csv"\ncolumn = "p [MW]"\ninterpolate = "linear"\n', "unknown keys ['interpolate']"),
     ]:
         path = write_study(tmp_path, body, fmu_path)
         assert cli.main([str(path), "--serial", "--out", str(tmp_path / "out")]) == 2, body
@@ -358,3 +360,29 @@ def test_an_existing_cluster_runs_the_study_as_the_serial_run(tmp_path, fmu_path
     cluster = pd.read_parquet(tmp_path / "cluster" / "kpis.parquet")
     assert cluster["scenario"].tolist() == serial["scenario"].tolist()
     np.testing.assert_array_equal(kpi_values(cluster), kpi_values(serial))
+
+
+def test_module_parameter_files_are_an_axis_shipped_with_the_scenario(tmp_path, fmu_path):
+    """A moduleParameterFile axis: each file goes to the workers by its hash (no shared file
+    system); the modules take its gains round robin: m = Σ_k c K_k u t."""
+    for name, gains in (("two.json", [0.50, 0.56]), ("one.json", [0.50])):
+        modules = [{"module": f"M{k}", "parameters": {"gain": {"value": g, "unit": "A/%", "source": "identified"}}}
+                   for k, g in enumerate(gains)]
+        (tmp_path / name).write_text(json.dumps({"generator": "test", "modules": modules}))
+    (tmp_path / "sp.csv").write_text("time [s],setpoint [%]\n0,80\n3600,80\n")
+    path = write_study(tmp_path, """horizon = "1 h"
+[parameters]
+nModules = 4
+[series.sp]
+file = "sp.csv"
+column = "setpoint [%]"
+[axes]
+moduleParameterFile = ["two.json", "one.json"]
+""", fmu_path)
+    study, frame = run_study(path, tmp_path / "out", serial=True)
+    assert frame["moduleParameterFile"].tolist() == ["two.json", "one.json"]
+    assert study.scenarios()[0].definition["parameters"]["moduleParameterFile"].startswith("file:sha256:")
+    c = PAPER["h2Coefficient"]
+    for (_, row), gains in zip(frame.iterrows(), ([0.50, 0.56, 0.50, 0.56], [0.50] * 4)):
+        assert row["status"] == "done", row["message"]
+        assert row["hydrogen [kg]"] == pytest.approx(sum(c * k * 80.0 for k in gains) * KG_PER_NL, rel=1e-9)
