@@ -8,6 +8,7 @@ what finished. The KPIs do not depend on where a scenario ran (same binary, same
 import contextlib
 import logging
 import os
+import sys
 import tempfile
 import zipfile
 from pathlib import Path
@@ -31,7 +32,13 @@ def runners(runner=None):
         found = {this_platform(): Path(runner)}
     else:
         found = {name: path for name, path in PORTABLE_RUNNERS.items() if path.is_file()}
-        found.setdefault(this_platform(), DEFAULT_RUNNER)
+        portable = found.get(this_platform())
+        if portable is None or (DEFAULT_RUNNER.is_file() and portable.stat().st_mtime < DEFAULT_RUNNER.stat().st_mtime):
+            if portable is not None:
+                print(f"aem-study: {portable} is older than {DEFAULT_RUNNER}: shipping the latter, which needs "
+                      f"this machine's C library on the workers (rebuild: packaging/platforms.py aem-run)",
+                      file=sys.stderr)
+            found[this_platform()] = DEFAULT_RUNNER
     for path in found.values():
         if not path.is_file():
             raise FileNotFoundError(f"no aem-run at {path} (build it: cargo build --release -p aem-run)")

@@ -18,6 +18,10 @@ import numpy as np
 from .series import SeriesError, reference
 
 
+class ScenarioError(ValueError):
+    """A scenario that cannot run: no runner for the worker, an inconsistent definition."""
+
+
 def this_platform():
     """The key of a runner binary that runs here, e.g. linux-x86_64."""
     return f"{platform.system().lower()}-{platform.machine().lower()}"
@@ -65,7 +69,7 @@ def run_scenario(key: str, definition: dict, bundle: Bundle) -> dict:
     try:
         runner = bundle.runners.get(this_platform())
         if runner is None:
-            raise SeriesError(f"no aem-run for this worker's platform {this_platform()} "
+            raise ScenarioError(f"no aem-run for this worker's platform {this_platform()} "
                               f"(the client has {', '.join(bundle.runners)})")
         args = [str(_materialise(runner, "-aem-run.exe" if os.name == "nt" else "-aem-run", executable=True)),
                 "--fmu", str(_materialise(bundle.fmu, ".fmu")),
@@ -76,16 +80,16 @@ def run_scenario(key: str, definition: dict, bundle: Bundle) -> dict:
             args += ["--param", f"{name}={value}"]
         if definition["hub size"] is not None:
             if definition["input"] != "power" or not definition["source rating [W]"]:
-                raise SeriesError("a hub size relative to the source needs a power series with a rating")
+                raise ScenarioError("a hub size relative to the source needs a power series with a rating")
             args += ["--hub-size", repr(definition["hub size"]), "--source-rating", repr(definition["source rating [W]"])]
         step, horizon = definition["step [s]"], definition["horizon [s]"]
         steps = round(horizon / step)
         if steps < 1 or abs(steps * step - horizon) > 1e-9 * horizon:
-            raise SeriesError(f"the horizon {horizon} s is not a whole number of steps of {step} s")
+            raise ScenarioError(f"the horizon {horizon} s is not a whole number of steps of {step} s")
         series = definition["series"]
         values = reference(series, step, horizon, bundle.series.get(series.get("sha256")))
         with tempfile.NamedTemporaryFile(dir=_cache_dir(), suffix=".f64", delete=False) as f:
-            f.write(np.ascontiguousarray(values, dtype="<f8").tobytes())
+            np.ascontiguousarray(values, dtype="<f8").tofile(f)  # no copy of a year's 252 MB
         try:
             done = subprocess.run(args + ["--reference", f.name], capture_output=True, text=True)
         finally:
@@ -93,7 +97,10 @@ def run_scenario(key: str, definition: dict, bundle: Bundle) -> dict:
         try:
             report = json.loads(done.stdout)
         except json.JSONDecodeError:
-            raise SeriesError(f"aem-run exited with {done.returncode}: {done.stderr.strip() or done.stdout.strip()}")
+            raise ScenarioError(f"aem-run exited with {done.returncode}: {done.stderr.strip() or done.stdout.strip()}")
+        if report["status"] == "done" and report.get("kpi version") != definition["kpi version"]:
+            raise ScenarioError(f"aem-run computes KPIs of version {report.get('kpi version')}, the study expects "
+                              f"{definition['kpi version']}: ship the aem-run of this checkout")
         record.update(status=report["status"], message=report.get("message", ""),
                       kpis=report.get("kpis", {}), messages=report.get("messages", []),
                       **({"run time [s]": report["run time [s]"]} if "run time [s]" in report else {}))

@@ -9,6 +9,10 @@ use serde_json::{Map, Value};
 
 const J_PER_MWH: f64 = 3.6e9;
 
+/// Version of these definitions; aem-study keys stored results with it (study/definition.py's
+/// KPI_VERSION must equal it, which the worker checks), so changed definitions rerun.
+pub const KPI_VERSION: u32 = 1;
+
 /// Running sums over the steps of a power-driven run.
 #[derive(Debug, Default, Clone)]
 pub struct Sums {
