@@ -20,9 +20,23 @@ from .report import write_report
 from .table import table
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "scripts"))
+from command_line import quiet_on_closed_stdout, writable_folder  # noqa: E402
 
 
 def main(argv=None):
+    """The command: its exit status (a reader that goes away ends it quietly, results written)."""
+    status = 0
+
+    def run():
+        nonlocal status
+        status = _main(argv)
+
+    quiet_on_closed_stdout(run)
+    return status
+
+
+def _main(argv):
     parser = argparse.ArgumentParser(prog="aem-study", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("study", type=Path)
@@ -45,6 +59,7 @@ def main(argv=None):
     out = args.out or ROOT / "out" / args.study.stem
     if args.list:
         return _list(study, out)
+    writable_folder(out)
     try:
         records = engine.run(study, out, scheduler=args.scheduler, workers=args.workers, serial=args.serial,
                              runner=args.runner, retry_failed=args.retry_failed)

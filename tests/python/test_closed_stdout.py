@@ -106,13 +106,19 @@ def closed_stdout_case(name, tmp, fmu):
                  for p in platforms])
     if name == "plot_validation":
         return ["scripts/plot_validation.py", validation_trace(tmp / "trace.csv"), tmp / "v.png"], [tmp / "v.png"]
+    if name == "aem-study":
+        (tmp / "flat.csv").write_text("time [s],power [MW]\n0,1\n600,1\n")
+        (tmp / "s.toml").write_text(f'[study]\nfmu = "{fmu}"\n[parameters]\nnModules = 500\n'
+                                    '[series.flat]\nfile = "flat.csv"\ncolumn = "power [MW]"\n')
+        return (["-m", "study", tmp / "s.toml", "--serial", "--out", tmp / "st"],
+                [tmp / "st" / name for name in ("kpis.csv", "kpis.parquet", "summary.txt", "plots/hydrogen_kg.png")])
     if name == "shrink_png":
         return ["scripts/shrink_png.py", small_png(tmp / "big.png"), tmp / "small.png"], [tmp / "small.png"]
     raise ValueError(name)
 
 
 @pytest.mark.parametrize("name", ["step_schedule", "step_responses", "wind_farm", "wind_hub", "grid_cosim", "package",
-                                  "cross_check", "plot_validation", "shrink_png"])
+                                  "cross_check", "plot_validation", "shrink_png", "aem-study"])
 def test_a_closed_stdout_ends_the_command_quietly_after_its_files_are_written(name, tmp_path, fmu_path):
     args, outputs = closed_stdout_case(name, tmp_path, fmu_path)
     assert_quiet(run(args))
