@@ -88,7 +88,11 @@ def _client(scheduler, workers):
     from distributed import Client, LocalCluster
     if scheduler:
         with Client(scheduler) as client:
-            client.upload_file(_package_zip())
+            archive = _package_zip()
+            try:
+                client.upload_file(archive)
+            finally:
+                os.unlink(archive)
             yield client
         return
     n = workers or os.cpu_count() or 1
