@@ -95,6 +95,7 @@ class Study:
         if not self.series:
             raise ValueError(f"{self.path}: no [series.NAME] table")
         self.axes = self._axes(doc.get("axes", {}), here)
+        self._scenarios = None
 
     def _parameter(self, name, value, here):
         """The text aem-run sets; a String parameter naming a file ships the file by its hash."""
@@ -160,7 +161,12 @@ class Study:
 
     def scenarios(self):
         """Every combination of the axes' values, in the axes' order; repeats dropped (a seed
-        axis crossed with a file series)."""
+        axis crossed with a file series). Computed once per study."""
+        if self._scenarios is None:
+            self._scenarios = self._cross()
+        return self._scenarios
+
+    def _cross(self):
         fmu_digest = hashlib.sha256(self.fmu_bytes).hexdigest()
         seen, out = set(), []
         for combination in itertools.product(*(values for _, values in self.axes)):
