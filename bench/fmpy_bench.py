@@ -12,7 +12,6 @@ to the Rust model and to the FMU through fmpy.
 import argparse
 import json
 import platform
-import sys
 import time
 from pathlib import Path
 
@@ -21,10 +20,9 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import python_reference  # noqa: E402
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from command_line import quiet_on_closed_stdout  # noqa: E402
+import python_reference  # bench/, the script's own folder
+from aem_electrolyser import fmu_path
+from aem_electrolyser.cli import quiet_on_closed_stdout
 
 DAY = 86_400
 
@@ -70,8 +68,9 @@ def fmpy_day(fmu_path, setpoints):
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--rust", type=Path, default=ROOT / "target" / "bench" / "rust.json")
-    parser.add_argument("--fmu", type=Path, default=ROOT / "target" / "fmu" / "AemElectrolyser.fmu")
+    parser.add_argument("--fmu", type=Path, default=None, help="the FMU [default: the installed package's]")
     args = parser.parse_args()
+    args.fmu = fmu_path(args.fmu)
     rust = json.loads(args.rust.read_text())
     setpoints = wind_like_setpoints(DAY)
 

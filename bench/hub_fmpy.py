@@ -8,12 +8,11 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
 from wind_reference import wind_reference  # bench/, the script's own folder
-import sys
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from command_line import quiet_on_closed_stdout  # noqa: E402
+from aem_electrolyser import fmu_path
+from aem_electrolyser.cli import quiet_on_closed_stdout
 
 ROOT = Path(__file__).resolve().parents[1]
-FMU = ROOT / "target" / "fmu" / "AemElectrolyser.fmu"
+FMU = fmu_path()
 DAY, MODULES = 86_400, 25_000
 
 

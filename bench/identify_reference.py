@@ -26,8 +26,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.signal import lfilter
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from command_line import quiet_on_closed_stdout  # noqa: E402
+from aem_electrolyser.cli import quiet_on_closed_stdout
 
 COLUMNS = ["time", "setpoint", "current", "voltage", "temperature", "pressure", "h2_flow"]
 MAX_GAP, RUNNING_CURRENT, SETTLE, PRE_WINDOW, MIN_RESPONSE = 10.0, 1.0, 600.0, 60.0, 60.0

@@ -38,6 +38,7 @@ extrapolated with a fit a + b*hour of the per-hour wall times, UNDERESTIMATES th
 import argparse
 import os
 import platform
+from pathlib import Path
 import time
 
 import numpy as np
@@ -46,10 +47,6 @@ from electrolyzer.tools.design.optimization import calc_rated_system
 from electrolyzer.tools.validation import load_modeling_yaml
 
 from wind_reference import wind_reference  # bench/, the script's own folder
-import sys
-from pathlib import Path
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from command_line import quiet_on_closed_stdout  # noqa: E402
 
 DAY, N_STACKS, PLANT_MW = 86_400, 60, 60.0
 
@@ -140,4 +137,4 @@ def version():
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    main()  # runs in the peer's own environment (.venv-nrel), without this package

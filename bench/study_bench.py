@@ -26,15 +26,13 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "bench"))
-from study import engine  # noqa: E402
-from study.definition import Study  # noqa: E402
-from study.wind_year import farm_power_year  # noqa: E402
-from wind_reference import wind_reference  # noqa: E402
+from aem_electrolyser import locate
+from aem_electrolyser.study import engine
+from aem_electrolyser.study.definition import Study
+from aem_electrolyser.wind.year import farm_power_year
+from wind_reference import wind_reference  # bench/, the script's own folder
 
 OUT = ROOT / "target" / "bench" / "study"
 HUB = """[parameters]
@@ -78,7 +76,7 @@ def aem_run_seconds(reference):
     """Wall time [s] of aem-run over `reference` [W] with the hub of this benchmark."""
     path = OUT / "reference.f64"
     reference.astype("<f8").tofile(path)
-    args = [str(engine.DEFAULT_RUNNER), "--fmu", str(ROOT / "target" / "fmu" / "AemElectrolyser.fmu"),
+    args = [str(locate.binary("aem-run")), "--fmu", str(locate.fmu_path()),
             "--reference", str(path), "--step", "1", "--param", "nModules=25000", "--param", "dispatch=2",
             "--param", "belowMinimum=1"]
     started = time.perf_counter()

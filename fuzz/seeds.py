@@ -19,10 +19,12 @@ import sys
 import tempfile
 from pathlib import Path
 
+from aem_electrolyser import locate
+
 ROOT = Path(__file__).resolve().parent.parent
 CORPUS = ROOT / "fuzz" / "corpus"
-FMU = ROOT / "target" / "fmu" / "AemElectrolyser.fmu"
-IDENTIFY = ROOT / "target" / "release" / "aem-identify"
+FMU = locate.fmu_path()
+IDENTIFY = locate.binary("aem-identify")
 TABLE_I = {"gain": (0.534, "A/%"), "tauZero": (95.371, "s"), "tauPole1": (1.995, "s"), "tauPole2": (113.568, "s"),
            "rampUpLimit": (0.22, "A/s"), "voltageIntercept": (35.75, "V"), "ohmicResistance": (0.1529, "Ohm"),
            "h2Coefficient": (9.6174, "Nl/(h.A)"), "nominalCurrent": (53.35, "A"), "minSetpoint": (60.0, "%"),

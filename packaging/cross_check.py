@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Write the packaged FMU into the layout of the FMI cross-check repository.
 
-    python packaging/cross_check.py [--fmu target/fmu/AemElectrolyser.fmu] [--out target/cross-check]
+    python packaging/cross_check.py [--out target/cross-check]
 
 For every platform whose binary the FMU holds (linux64, win64):
 
@@ -33,8 +33,7 @@ import sys
 import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from command_line import quiet_on_closed_stdout, writable_folder  # noqa: E402
+from aem_electrolyser.cli import add_fmu_option, quiet_on_closed_stdout, resolve_fmu, writable_folder
 
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = "AemElectrolyser"
@@ -153,12 +152,11 @@ def write_model_folder(folder, fmu, reference):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--fmu", type=Path, default=ROOT / "target" / "fmu" / f"{MODEL}.fmu")
+    add_fmu_option(parser)
     parser.add_argument("--out", type=Path, default=ROOT / "target" / "cross-check")
     args = parser.parse_args(argv)
     writable_folder(args.out)
-    if not args.fmu.is_file():
-        sys.exit(f"cross_check.py: {args.fmu} not found (python packaging/package.py writes it)")
+    args.fmu = resolve_fmu(parser, args)
     with zipfile.ZipFile(args.fmu) as z:
         names = set(z.namelist())
     platforms = [p for p, ext in PLATFORMS.items() if f"binaries/{p}/{MODEL}{ext}" in names]

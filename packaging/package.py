@@ -41,9 +41,9 @@ import sys
 import zipfile
 from pathlib import Path
 
-from platforms import PLATFORMS, build, release_dir
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from command_line import quiet_on_closed_stdout, writable  # noqa: E402
+from platforms import PLATFORMS, build, platform, release_dir
+
+from aem_electrolyser.cli import quiet_on_closed_stdout, writable
 
 ROOT = Path(__file__).resolve().parent.parent
 MODEL_IDENTIFIER = "AemElectrolyser"
@@ -52,7 +52,7 @@ CRATE_LIB = "aem_electrolyser"
 FIXED_DATE = (2026, 1, 1, 0, 0, 0)
 
 
-def build_release(platforms, model_description=None):
+def build_release(platforms, model_description=None, native=False):
     """Release builds of the FMU's library for `platforms`, from the repository's model
     description or from `model_description`."""
     if host.system() != "Linux" or host.machine() != "x86_64":
@@ -60,7 +60,7 @@ def build_release(platforms, model_description=None):
     # Always set, so that a build from an edited copy is never reused for the repository's.
     env = {"AEM_MODEL_DESCRIPTION": str(model_description) if model_description is not None else ""}
     for name in platforms:
-        build(PLATFORMS[name], ["--lib", "--package", CRATE, "--locked"], env)
+        build(platform(name, native), ["--lib", "--package", CRATE, "--locked"], env)
 
 
 class ParameterFileError(Exception):
@@ -162,20 +162,20 @@ def integer_enumerations(xml_text: str) -> str:
     return re.sub(r"\s*<TypeDefinitions>.*?</TypeDefinitions>", "", text, flags=re.S)
 
 
-def entries(model_description: bytes, platforms):
+def entries(model_description: bytes, platforms, native=False):
     """(archive name, bytes) of every file in the FMU."""
     guid = ET.fromstring(model_description).get("guid")
     yield "modelDescription.xml", model_description
     for name in platforms:
-        platform = PLATFORMS[name]
-        library = release_dir(platform) / platform.library(CRATE_LIB)
+        built = platform(name, native)
+        library = release_dir(built) / built.library(CRATE_LIB)
         if not library.is_file():
             sys.exit(f"package.py: {library} not found; run without --no-build")
         binary = library.read_bytes()
         if guid.encode() not in binary:
             sys.exit(f"package.py: {library} was not built from this model description (GUID {guid} not in it); "
                      "run without --no-build")
-        yield f"binaries/{name}/{MODEL_IDENTIFIER}{platform.library_suffix}", binary
+        yield f"binaries/{name}/{MODEL_IDENTIFIER}{built.library_suffix}", binary
     docs = ROOT / "documentation"
     for path in sorted(docs.rglob("*")):
         if path.is_file():
@@ -200,6 +200,8 @@ def main(argv=None):
     parser.add_argument("--no-build", action="store_true", help="use the libraries already built")
     parser.add_argument("--platforms", default=",".join(PLATFORMS),
                         help=f"comma-separated FMI platforms to build and ship (default: {','.join(PLATFORMS)})")
+    parser.add_argument("--native", action="store_true",
+                        help="linux64 built with plain cargo against this machine's glibc (no zig; not for a release)")
     parser.add_argument("--parameters", type=Path, help="parameter file of aem-identify: its values become the start values")
     parser.add_argument("--module", help="module of the parameter file (when it holds several)")
     parser.add_argument("--integer-enumerations", action="store_true",
@@ -228,7 +230,7 @@ def main(argv=None):
         if args.module is not None:
             parser.error("--module needs --parameters")
         if not args.no_build:
-            build_release(platforms)
+            build_release(platforms, native=args.native)
         model_description = xml_path.read_bytes()
     else:
         try:
@@ -241,11 +243,11 @@ def main(argv=None):
         edited.parent.mkdir(parents=True, exist_ok=True)
         edited.write_text(text, encoding="utf-8")
         if not args.no_build:
-            build_release(platforms, edited.resolve())
+            build_release(platforms, edited.resolve(), native=args.native)
         model_description = text.encode("utf-8")
     if args.integer_enumerations:
         model_description = integer_enumerations(model_description.decode("utf-8")).encode("utf-8")
-    write_fmu(args.out, list(entries(model_description, platforms)))
+    write_fmu(args.out, list(entries(model_description, platforms, args.native)))
     if args.parameters is not None:
         print(f"start values from {args.parameters}: " + ", ".join(f"{k}={v!r}" for k, v in values.items()) + f"; GUID {guid}")
     print(f"wrote {args.out.relative_to(ROOT) if args.out.is_relative_to(ROOT) else args.out}")

@@ -15,7 +15,8 @@ identification tool and aem-study's native master for users of each platform:
 
 Build times go to stderr; the output paths are checked for writing before anything is built.
 
-Standard library only; scripts/setup.sh installs the toolchains.
+Standard library and aem_electrolyser.cli only (the hook of a build from source puts python/ on
+PYTHONPATH); scripts/setup.sh installs the toolchains.
 """
 import argparse
 import os
@@ -25,8 +26,8 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
-from command_line import quiet_on_closed_stdout, writable  # noqa: E402
+
+from aem_electrolyser.cli import quiet_on_closed_stdout, writable
 
 ROOT = Path(__file__).resolve().parent.parent
 TARGET = Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
@@ -49,6 +50,14 @@ class Platform:
 LINUX64 = Platform("linux64", "x86_64-unknown-linux-gnu", "lib", ".so", "")
 WIN64 = Platform("win64", "x86_64-pc-windows-gnu", "", ".dll", ".exe")
 PLATFORMS = {p.name: p for p in (LINUX64, WIN64)}
+#: linux64 built with plain `cargo build` against this machine's glibc: no zig, fast; for a build
+#: from source (the demo, a wheel built from the sdist), not for a release.
+HOST = Platform("linux64", "x86_64-unknown-linux-gnu", "lib", ".so", "")
+
+
+def platform(name, native=False):
+    """The Platform of FMI platform folder `name`; with native, linux64 is this machine's build."""
+    return HOST if native and name == LINUX64.name else PLATFORMS[name]
 
 #: The oldest glibc the linux64 binary links against (manylinux2014).
 GLIBC = "2.17"
@@ -71,6 +80,8 @@ def _gcc_include(gcc):
 
 def release_dir(platform):
     """Where `build(platform, ...)` leaves its release outputs."""
+    if platform is HOST:
+        return TARGET / "release"
     if platform is LINUX64:
         return TARGET / f"{LINUX64.triple}" / "release"
     return TARGET / platform.name / platform.triple / "release"
@@ -81,6 +92,8 @@ def command(platform, cargo_args):
     env = dict(os.environ)
     # cargo-zigbuild, and zig via `python -m ziglang`, live beside this interpreter (.venv/bin).
     env["PATH"] = f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
+    if platform is HOST:
+        return ["cargo", "build", "--release", *cargo_args], env
     if platform is LINUX64:
         if shutil.which("cargo-zigbuild", path=env["PATH"]) is None:
             sys.exit("platforms.py: cargo-zigbuild not found; pip install cargo-zigbuild ziglang (scripts/setup.sh does)")

@@ -60,8 +60,8 @@ if [ ! -x .venv/bin/python ] || ! cmp -s requirements.txt .venv/requirements.ins
   cp requirements.txt .venv/requirements.installed
 fi
 
-# The aem-study command (pyproject.toml), editable: it runs this checkout's study/.
-if [ ! -x .venv/bin/aem-study ]; then
-  echo "setup: installing the aem-study command into .venv"
+# The package aem_electrolyser (pyproject.toml), editable: python/ of this checkout, and its commands.
+if [ ! -x .venv/bin/aem-prequalify ]; then
+  echo "setup: installing the aem-electrolyser package (editable) into .venv"
   .venv/bin/python -m pip install -q --disable-pip-version-check --no-deps --no-build-isolation -e .
 fi

@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from PIL import Image
-from command_line import quiet_on_closed_stdout, writable
+from aem_electrolyser.cli import quiet_on_closed_stdout, writable
 
 
 def main(argv=None):

@@ -2,7 +2,6 @@
 and the paper's parameters with the closed-form responses the tests compare against."""
 import itertools
 import math
-import os
 import shutil
 from ctypes import byref
 from pathlib import Path
@@ -12,8 +11,13 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
 from fmpy.logging import addLoggerProxy
 
+import aem_electrolyser
+
 ROOT = Path(__file__).resolve().parents[2]
-FMU_PATH = Path(os.environ.get("AEM_FMU", ROOT / "target" / "fmu" / "AemElectrolyser.fmu"))
+try:  # the installed package's FMU (the checkout's build, editable), or AEM_FMU
+    FMU_PATH = aem_electrolyser.fmu_path()
+except aem_electrolyser.NotBuilt as e:
+    FMU_PATH, FMU_MISSING = None, str(e)
 
 #: Table I of the paper: the FMU's parameter start values.
 PAPER = dict(
@@ -52,8 +56,8 @@ _CALLBACKS.logger = _LOGGER
 
 @pytest.fixture(scope="session")
 def fmu_path():
-    if not FMU_PATH.is_file():
-        pytest.fail(f"{FMU_PATH} not found: build it with python3 packaging/package.py")
+    if FMU_PATH is None:
+        pytest.fail(FMU_MISSING)
     return FMU_PATH
 
 

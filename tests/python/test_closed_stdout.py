@@ -21,10 +21,11 @@ from conftest import ROOT
 
 VALIDATION_HEADER = ("time,setpoint,current_measured,current_model,voltage_measured,voltage_model,"
                      "power_measured,power_model,h2_flow_measured,h2_flow_model,compared")
-COMMANDS = ["examples/step_schedule.py", "examples/step_responses.py", "examples/validation_day.py",
-            "examples/wind_farm.py", "examples/wind_hub.py", "examples/grid_cosim.py", "packaging/package.py",
-            "packaging/cross_check.py", "packaging/platforms.py", "scripts/plot_validation.py",
-            "scripts/shrink_png.py"]
+COMMANDS = [["-m", f"aem_electrolyser.{m}"] for m in (
+    "examples.step_schedule", "examples.step_responses", "examples.validation_day", "wind.farm", "examples.wind_hub",
+    "examples.grid_cosim", "plot_validation", "reserves.prequalify", "study")] + [
+    [script] for script in ("packaging/package.py", "packaging/cross_check.py", "packaging/platforms.py",
+                            "scripts/shrink_png.py")]
 
 
 def run(args, stdout_closed=True, timeout=120, env=None, buffered=False):
@@ -80,16 +81,16 @@ def packable_platforms():
 def closed_stdout_case(name, tmp, fmu):
     """(arguments with short horizons, result files) of command `name`."""
     if name == "step_schedule":
-        return ["examples/step_schedule.py", "--fmu", fmu, "--out", tmp / "ss"], [tmp / "ss.csv", tmp / "ss.png"]
+        return ["-m", "aem_electrolyser.examples.step_schedule", "--fmu", fmu, "--out", tmp / "ss"], [tmp / "ss.csv", tmp / "ss.png"]
     if name == "step_responses":
-        return (["examples/step_responses.py", "--fmu", fmu, "--out", tmp, "--duration", 60, "--dt", 1, "--dpi", 40],
+        return (["-m", "aem_electrolyser.examples.step_responses", "--fmu", fmu, "--out", tmp, "--duration", 60, "--dt", 1, "--dpi", 40],
                 [tmp / "step_responses.csv", tmp / "step_responses_table.csv", tmp / "step_responses.png"])
     if name == "wind_farm":
-        return ["examples/wind_farm.py", "--hours", 0.1, "--csv", tmp / "wf.csv"], [tmp / "wf.csv"]
+        return ["-m", "aem_electrolyser.wind.farm", "--hours", 0.1, "--csv", tmp / "wf.csv"], [tmp / "wf.csv"]
     if name == "wind_hub":
-        return ["examples/wind_hub.py", "--fmu", fmu, "--duration", 60, "--out", tmp / "wh"], [tmp / "wh.csv", tmp / "wh.png"]
+        return ["-m", "aem_electrolyser.examples.wind_hub", "--fmu", fmu, "--duration", 60, "--out", tmp / "wh"], [tmp / "wh.csv", tmp / "wh.png"]
     if name == "grid_cosim":
-        return (["examples/grid_cosim.py", "--fmu", fmu, "--duration", 1, "--gust-start", 0.2, "--out", tmp / "gc"],
+        return (["-m", "aem_electrolyser.examples.grid_cosim", "--fmu", fmu, "--duration", 1, "--gust-start", 0.2, "--out", tmp / "gc"],
                 [tmp / "gc.csv", tmp / "gc.png"])
     if name == "package":
         platforms = packable_platforms()
@@ -105,12 +106,12 @@ def closed_stdout_case(name, tmp, fmu):
                 [tmp / "cc/fmus/2.0/cs" / p / "aem-electrolyser-fmu" / version / "AemElectrolyser/AemElectrolyser_ref.csv"
                  for p in platforms])
     if name == "plot_validation":
-        return ["scripts/plot_validation.py", validation_trace(tmp / "trace.csv"), tmp / "v.png"], [tmp / "v.png"]
+        return ["-m", "aem_electrolyser.plot_validation", validation_trace(tmp / "trace.csv"), tmp / "v.png"], [tmp / "v.png"]
     if name == "aem-study":
         (tmp / "flat.csv").write_text("time [s],power [MW]\n0,1\n600,1\n")
         (tmp / "s.toml").write_text(f'[study]\nfmu = "{fmu}"\n[parameters]\nnModules = 500\n'
                                     '[series.flat]\nfile = "flat.csv"\ncolumn = "power [MW]"\n')
-        return (["-m", "study", tmp / "s.toml", "--serial", "--out", tmp / "st"],
+        return (["-m", "aem_electrolyser.study", tmp / "s.toml", "--serial", "--out", tmp / "st"],
                 [tmp / "st" / name for name in ("kpis.csv", "kpis.parquet", "summary.txt", "plots/hydrogen_kg.png")])
     if name == "shrink_png":
         return ["scripts/shrink_png.py", small_png(tmp / "big.png"), tmp / "small.png"], [tmp / "small.png"]
@@ -133,9 +134,9 @@ def test_a_buffered_stdout_meets_the_closed_pipe_at_exit_quietly(name, tmp_path,
     assert all(o.is_file() for o in outputs)
 
 
-@pytest.mark.parametrize("command", COMMANDS)
+@pytest.mark.parametrize("command", COMMANDS, ids=" ".join)
 def test_help_on_a_closed_stdout_is_quiet(command):
-    assert_quiet(run([command, "--help"], buffered=True))  # argparse itself is quiet when unbuffered
+    assert_quiet(run([*command, "--help"], buffered=True))  # argparse itself is quiet when unbuffered
 
 
 def test_platforms_refuses_an_unknown_platform_before_it_builds():
@@ -149,16 +150,16 @@ def unwritable_case(name, blocked, tmp, fmu):
     if name == "platforms":
         return ["packaging/platforms.py", "aem-identify"], {"CARGO_TARGET_DIR": str(blocked)}
     return {
-        "step_schedule": ["examples/step_schedule.py", "--fmu", fmu, "--out", blocked / "ss"],
-        "step_responses": ["examples/step_responses.py", "--fmu", fmu, "--out", blocked],
+        "step_schedule": ["-m", "aem_electrolyser.examples.step_schedule", "--fmu", fmu, "--out", blocked / "ss"],
+        "step_responses": ["-m", "aem_electrolyser.examples.step_responses", "--fmu", fmu, "--out", blocked],
         # A missing tool shows a check made too late: the synthesis would fail first.
-        "validation_day": ["examples/validation_day.py", "--out", blocked, "--tool", tmp / "no-such-tool"],
-        "wind_farm": ["examples/wind_farm.py", "--csv", blocked / "wf.csv"],
-        "wind_hub": ["examples/wind_hub.py", "--fmu", fmu, "--out", blocked / "wh"],
-        "grid_cosim": ["examples/grid_cosim.py", "--fmu", fmu, "--out", blocked / "gc"],
+        "validation_day": ["-m", "aem_electrolyser.examples.validation_day", "--out", blocked, "--tool", tmp / "no-such-tool"],
+        "wind_farm": ["-m", "aem_electrolyser.wind.farm", "--csv", blocked / "wf.csv"],
+        "wind_hub": ["-m", "aem_electrolyser.examples.wind_hub", "--fmu", fmu, "--out", blocked / "wh"],
+        "grid_cosim": ["-m", "aem_electrolyser.examples.grid_cosim", "--fmu", fmu, "--out", blocked / "gc"],
         "package": ["packaging/package.py", "--no-build", "--out", blocked / "x.fmu"],
         "cross_check": ["packaging/cross_check.py", "--fmu", fmu, "--out", blocked],
-        "plot_validation": ["scripts/plot_validation.py", validation_trace(tmp / "trace.csv"), blocked / "v.png"],
+        "plot_validation": ["-m", "aem_electrolyser.plot_validation", validation_trace(tmp / "trace.csv"), blocked / "v.png"],
         "shrink_png": ["scripts/shrink_png.py", small_png(tmp / "big.png"), blocked / "small.png"],
     }[name], None
 

@@ -9,15 +9,13 @@ import math
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import PAPER, ROOT, modal_weights, module_power, setpoint_for
+from conftest import PAPER, modal_weights, module_power, setpoint_for
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
-import generator_trip  # noqa: E402
+from aem_electrolyser.examples import generator_trip
 
 pytestmark = pytest.mark.filterwarnings("ignore:numpy.core is deprecated:DeprecationWarning")  # inside tops
 
@@ -162,8 +160,8 @@ def test_files_carry_units_and_every_step(trip):
 
 
 def test_command_line_help_and_a_horizon_too_short():
-    script = str(ROOT / "examples" / "generator_trip.py")
-    result = subprocess.run([sys.executable, script, "--help"], capture_output=True, text=True, timeout=60)
+    script = ["-m", "aem_electrolyser.examples.generator_trip"]
+    result = subprocess.run([sys.executable, *script, "--help"], capture_output=True, text=True, timeout=60)
     assert result.returncode == 0 and "--capacity" in result.stdout and "FCR-D" in result.stdout
-    result = subprocess.run([sys.executable, script, "--duration", "4"], capture_output=True, text=True, timeout=60)
+    result = subprocess.run([sys.executable, *script, "--duration", "4"], capture_output=True, text=True, timeout=60)
     assert result.returncode == 2 and "--duration" in result.stderr

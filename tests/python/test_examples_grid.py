@@ -1,16 +1,12 @@
 """Smoke runs of examples 3 (examples/wind_hub.py) and 4 (examples/grid_cosim.py) through the
 packaged hub FMU, with short horizons, and the numbers they must get right."""
 import csv
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
-import grid_cosim  # noqa: E402
-import wind_hub  # noqa: E402
-from hub_fmu import HubFMU  # noqa: E402
+from aem_electrolyser.examples import grid_cosim, wind_hub
+from aem_electrolyser.hub import HubFMU
 
 HUB = HubFMU
 pytestmark = pytest.mark.filterwarnings("ignore:numpy.core is deprecated:DeprecationWarning")  # inside tops

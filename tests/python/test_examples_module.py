@@ -24,7 +24,7 @@ TRUTH = dict(gain=0.512, rampUpLimit=0.18, voltageIntercept=36.4, ohmicResistanc
 
 
 def run_example(name, *args):
-    result = subprocess.run([sys.executable, str(ROOT / "examples" / name), *map(str, args)],
+    result = subprocess.run([sys.executable, "-m", f"aem_electrolyser.examples.{name}", *map(str, args)],
                             cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout + result.stderr
     return result.stdout
@@ -57,7 +57,7 @@ def test_the_quick_start_demo_warns_only_of_its_excursion(fmu_path, tmp_path):
     """The demo (scripts/demo.sh runs it) gives fmpy every input, so its only message is the
     FMU's own warning when the schedule leaves the operating window (40 % at 2100 s); the run
     ends at 100 % in steady state, current K*100."""
-    result = subprocess.run([sys.executable, str(ROOT / "examples" / "step_schedule.py"), "--fmu", str(fmu_path),
+    result = subprocess.run([sys.executable, "-m", "aem_electrolyser.examples.step_schedule", "--fmu", str(fmu_path),
                              "--out", str(tmp_path / "demo")], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     messages = result.stderr.splitlines()
@@ -68,7 +68,7 @@ def test_the_quick_start_demo_warns_only_of_its_excursion(fmu_path, tmp_path):
 
 
 def test_step_responses_match_the_closed_form(fmu_path, tmp_path):
-    out = run_example("step_responses.py", "--fmu", fmu_path, "--out", tmp_path, "--duration", 1500, "--dt", 0.5)
+    out = run_example("step_responses", "--fmu", fmu_path, "--out", tmp_path, "--duration", 1500, "--dt", 0.5)
     rows = read_rows(tmp_path / "step_responses_table.csv")
     assert [(float(r["from [%]"]), float(r["to [%]"])) for r in rows] == \
         [(100, 100 - s) for s in (5, 10, 20, 30, 40)] + [(60, 60 + s) for s in (5, 10, 20, 30, 40)]
@@ -89,11 +89,8 @@ def test_step_responses_match_the_closed_form(fmu_path, tmp_path):
 
 
 def test_validation_day_recovers_the_truth_through_the_fmu(tmp_path):
-    tool = ROOT / "target" / "release" / "aem-identify"
-    if not tool.is_file():
-        pytest.fail(f"{tool} not found: build it with cargo build --release --bins")
-    shipped = hashlib.sha256(FMU_PATH.read_bytes()).hexdigest() if FMU_PATH.is_file() else None
-    out = run_example("validation_day.py", "--out", tmp_path, "--days", 2, "--hours", 4, "--seed", 11)
+    shipped = hashlib.sha256(FMU_PATH.read_bytes()).hexdigest() if FMU_PATH is not None else None
+    out = run_example("validation_day", "--out", tmp_path, "--days", 2, "--hours", 4, "--seed", 11)
 
     params = {r["parameter"]: r for r in read_rows(tmp_path / "validation_parameters.csv")}
     for name, true in TRUTH.items():

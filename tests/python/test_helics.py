@@ -33,15 +33,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import ROOT
+import pandapower as pp
+import pandapower.networks as pn
 
-HELICS_DIR = ROOT / "frameworks" / "helics"
-sys.path[:0] = [str(HELICS_DIR), str(ROOT / "examples")]
-import pandapower as pp  # noqa: E402
-import pandapower.networks as pn  # noqa: E402
-from hub_fmu import HubFMU  # noqa: E402
-from records import read  # noqa: E402
-from wind_farm import farm_power  # noqa: E402
+import aem_electrolyser.helics
+from aem_electrolyser.helics.records import read
+from aem_electrolyser.hub import HubFMU
+from aem_electrolyser.wind.farm import farm_power
+
+#: The runner file ships with the package, beside the federates.
+RUNNER_FILE = Path(aem_electrolyser.helics.__file__).parent / "federation.json"
 
 BIN = Path(sys.executable).parent
 DURATION, SEED, N_MODULES = 600, 1, 25_000
@@ -81,7 +82,7 @@ def table(path):
 def commands(out, port, key, fmu, duration=DURATION, common=(), broker=(), **extra):
     """The broker's and the federates' command lines, as federation.json has them but with this
     test's port, key, horizon and output folder."""
-    runner = json.loads((HELICS_DIR / "federation.json").read_text())
+    runner = json.loads(RUNNER_FILE.read_text())
     cmds = {}
     for f in runner["federates"]:
         args = shlex.split(f["exec"])
@@ -107,11 +108,11 @@ class Federation:
         self.tmp, self.out = tmp, tmp / "out"
         self.cmds = commands(self.out, free_ports(), f"test-{uuid.uuid4().hex}", fmu, **kw)
         for name, program in (programs or {}).items():
-            self.cmds[name][1] = str(program)
+            self.cmds[name][1:3] = [str(program)]  # in place of -m aem_electrolyser.helics.NAME
         self.procs = {}
         for name in names:
             with open(tmp / f"{name}.out", "w") as o, open(tmp / f"{name}.err", "w") as e:
-                self.procs[name] = subprocess.Popen(self.cmds[name], cwd=HELICS_DIR, stdout=o, stderr=e)
+                self.procs[name] = subprocess.Popen(self.cmds[name], cwd=tmp, stdout=o, stderr=e)
 
     def wait_for_rows(self, record, rows, timeout=60):
         path, end = self.out / record, time.monotonic() + timeout
@@ -167,10 +168,10 @@ def federation(tmp_path, fmu_path):
 def ten_minutes(fmu_path, tmp_path_factory):
     """Runs the runner file with this test's port, key, horizon and folders; (records, wall [s])."""
     tmp = tmp_path_factory.mktemp("helics")
-    runner = json.loads((HELICS_DIR / "federation.json").read_text())
+    runner = json.loads(RUNNER_FILE.read_text())
     cmds = commands(tmp / "out", free_ports(), f"test-{uuid.uuid4().hex}", fmu_path)
     for f in runner["federates"]:
-        f["directory"] = str(HELICS_DIR)
+        f["directory"] = str(tmp)
         f["exec"] = shlex.join(["python", *cmds[f["name"]][1:]])
     path = tmp / "federation.json"
     path.write_text(json.dumps(runner, indent=2))
@@ -309,10 +310,9 @@ def test_a_killed_process_ends_the_federation(federation, victim):
 
 
 HANGING_GRID = """import sys, time
-sys.path.insert(0, {helics!r})
 sys.argv[0] = "grid_federate.py"
-import grid_federate
-from command_line import quiet_on_closed_stdout
+from aem_electrolyser.helics import grid_federate
+from aem_electrolyser.cli import quiet_on_closed_stdout
 solve, calls = grid_federate.solve, []
 
 def hanging(net, first):
@@ -328,7 +328,7 @@ quiet_on_closed_stdout(grid_federate.main)
 
 def test_a_step_that_hangs_ends_the_federation(federation, tmp_path):
     program = tmp_path / "hanging_grid.py"
-    program.write_text(HANGING_GRID.format(helics=str(HELICS_DIR)))
+    program.write_text(HANGING_GRID)
     f = federation(common=[f"--stall-timeout={STALL}"], programs={"grid": program})
     status = f.wait(BOUND)
     # the grid's watchdog raises the global error, then ends its stuck process (status 3)
@@ -362,7 +362,7 @@ def test_the_wall_clock_limit_ends_the_federation(federation):
 def test_an_unwritable_output_folder_ends_a_federate_at_once(name, tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("")
-    done = subprocess.run([sys.executable, str(HELICS_DIR / f"{name}_federate.py"), f"--out={blocker / 'out'}"],
+    done = subprocess.run([sys.executable, "-m", f"aem_electrolyser.helics.{name}_federate", f"--out={blocker / 'out'}"],
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 1
     assert done.stderr.strip().splitlines() == [f"{name}_federate.py: cannot write {blocker / 'out'}: Not a directory"]

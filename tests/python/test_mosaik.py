@@ -16,16 +16,16 @@ import pytest
 from conftest import ROOT
 from test_closed_stdout import assert_quiet, run as run_command
 
-sys.path[:0] = [str(ROOT / "frameworks" / "mosaik"), str(ROOT / "examples")]
-import aem_simulator  # noqa: E402
-import cigre_scenario  # noqa: E402
-import pandapower as pp  # noqa: E402
-import pandapower.networks as pn  # noqa: E402
-from aem_simulator import AemSimulator, FMUError  # noqa: E402
-from hub_fmu import HubFMU  # noqa: E402
-from wind_farm import farm_power  # noqa: E402
+import pandapower as pp
+import pandapower.networks as pn
 
-SCENARIO = "frameworks/mosaik/cigre_scenario.py"
+from aem_electrolyser.hub import HubFMU
+from aem_electrolyser.mosaik import cigre_scenario
+from aem_electrolyser.mosaik import simulator as aem_simulator
+from aem_electrolyser.mosaik.simulator import AemSimulator, FMUError
+from aem_electrolyser.wind.farm import farm_power
+
+SCENARIO = ["-m", "aem_electrolyser.mosaik.cigre_scenario"]
 SEED, DURATION, N = 1, 3600, 25_000
 HUB_OUTPUTS = ["hubPower", "hubEnergy", "hubH2Produced", "modulesRunning", "modulesStandby"]
 
@@ -173,9 +173,8 @@ def test_fmu_errors_name_the_entity_and_the_fmus_message(fmu_path):
 
 MOSAIK_ERROR = """
 import sys
-sys.path.insert(0, "frameworks/mosaik")
 import mosaik
-cfg = {"AEM": {"python": "aem_simulator:AemSimulator"}, "Rec": {"python": "mosaik.basic_simulators:OutputSimulator"}}
+cfg = {"AEM": {"python": "aem_electrolyser.mosaik.simulator:AemSimulator"}, "Rec": {"python": "mosaik.basic_simulators:OutputSimulator"}}
 with mosaik.World(cfg, skip_greetings=True, configure_logging=False) as world:
     hub = world.start("AEM", fmu=sys.argv[1]).Hub(nModules=-5)
     world.connect(hub, world.start("Rec").Dict(), "hubPower")
@@ -187,7 +186,7 @@ def test_an_fmu_error_ends_a_mosaik_run_with_the_message_not_a_hang(fmu_path):
     done = subprocess.run([sys.executable, "-c", MOSAIK_ERROR, str(fmu_path)], cwd=ROOT, capture_output=True,
                           text=True, timeout=60)
     assert done.returncode == 1
-    assert "aem_simulator.FMUError: Hub_0: fmi2ExitInitializationMode" in done.stderr, done.stderr
+    assert "aem_electrolyser.mosaik.simulator.FMUError: Hub_0: fmi2ExitInitializationMode" in done.stderr, done.stderr
     assert "nModules = -5 is invalid" in done.stderr
     assert done.stdout == ""  # the FMU's log is on stderr
 
@@ -259,15 +258,15 @@ def test_enumerations_are_set_and_got_as_integers(fmu_path, tmp_path, wind):
 
 
 def test_the_command_reports_on_stdout_only_and_ends_quietly_on_a_closed_one(tmp_path, fmu_path):
-    args = [SCENARIO, "--fmu", fmu_path, "--duration", 20, "--dispatch", "sequential", "--out", tmp_path / "c"]
+    args = [*SCENARIO, "--fmu", fmu_path, "--duration", 20, "--dispatch", "sequential", "--out", tmp_path / "c"]
     done = subprocess.run([sys.executable, *map(str, args)], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
     assert len(lines) == 3 and "sequential" in lines[0] and lines[2].startswith("wrote"), done.stdout
     assert_quiet(run_command(args))
     assert (tmp_path / "c.csv").stat().st_size > 0 and (tmp_path / "c.png").stat().st_size > 0
-    assert_quiet(run_command([SCENARIO, "--help"], buffered=True))
+    assert_quiet(run_command([*SCENARIO, "--help"], buffered=True))
     blocked = tmp_path / "c.csv" / "sub"
-    done = run_command([SCENARIO, "--fmu", fmu_path, "--out", blocked], stdout_closed=False, timeout=30)
+    done = run_command([*SCENARIO, "--fmu", fmu_path, "--out", blocked], stdout_closed=False, timeout=30)
     assert done.returncode == 1 and done.stderr.strip().splitlines() == [done.stderr.strip()], done.stderr
     assert "cannot write" in done.stderr and str(blocked) in done.stderr

@@ -1,4 +1,4 @@
-"""scripts/plot_validation.py turns the CSV of `aem-identify validate --csv` into a PNG."""
+"""aem_electrolyser.plot_validation turns the CSV of `aem-identify validate --csv` into a PNG."""
 import subprocess
 import sys
 
@@ -16,7 +16,7 @@ def test_plot_of_a_validation_trace(tmp_path):
     trace = tmp_path / "validation.csv"
     trace.write_text("\n".join(rows) + "\n")
     png = tmp_path / "out" / "validation.png"
-    result = subprocess.run([sys.executable, str(ROOT / "scripts" / "plot_validation.py"), str(trace), str(png)],
+    result = subprocess.run([sys.executable, "-m", "aem_electrolyser.plot_validation", str(trace), str(png)],
                             capture_output=True, text=True)
     assert result.returncode == 0, result.stderr
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -25,7 +25,7 @@ K, RAMP = PAPER["gain"], PAPER["rampUpLimit"]
 def assessed(fmu_path, tmp_path_factory):
     out = tmp_path_factory.mktemp("prequalification")
     done = subprocess.run(
-        [sys.executable, "-m", "reserves.prequalify", "--fmu", str(fmu_path), "--modules", str(N), "--baseline", "80",
+        [sys.executable, "-m", "aem_electrolyser.reserves.prequalify", "--fmu", str(fmu_path), "--modules", str(N), "--baseline", "80",
          "--products", "mFRR up,FFR 49.7 Hz,Continental FCR", "--out", str(out), "--jobs", "2"],
         cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr

@@ -3,16 +3,13 @@ form (first-order units, ramp-limited units, hand-computed piecewise-linear trac
 known linear systems), the signals against the NTR/NTP tables, the bisection and the reports."""
 import json
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
-from reserves import activation, bisection, evaluate as ev, frequency_domain as fd  # noqa: E402
-from reserves import report, signals as S  # noqa: E402
-from reserves.requirement import FAIL, PASS, UNSURE, Trace  # noqa: E402
+from aem_electrolyser.reserves import activation, bisection, evaluate as ev, frequency_domain as fd
+from aem_electrolyser.reserves import report, signals as S
+from aem_electrolyser.reserves.requirement import FAIL, PASS, UNSURE, Trace
 
 C = 2.0e6          # capacity offered [W]
 BASE = 50.0e6      # hub consumption without activation [W]

@@ -11,24 +11,27 @@ import pickle
 import signal
 import subprocess
 import sys
+import sysconfig
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from conftest import PAPER, ROOT, module_power, setpoint_for
+from conftest import PAPER, module_power, setpoint_for
 
-sys.path.insert(0, str(ROOT))
-from study import cli, engine  # noqa: E402
-from study.definition import Study  # noqa: E402
-from study.kpis import KPIS  # noqa: E402
-from study.series import reference  # noqa: E402
-from study.table import table  # noqa: E402
-from study.worker import run_scenario  # noqa: E402
+from aem_electrolyser import locate
+from aem_electrolyser.study import cli, engine
+from aem_electrolyser.study.definition import Study
+from aem_electrolyser.study.kpis import KPIS
+from aem_electrolyser.study.series import reference
+from aem_electrolyser.study.table import table
+from aem_electrolyser.study.worker import run_scenario
 
-RUNNER = ROOT / "target" / "release" / "aem-run"
-AEM_STUDY = [str(ROOT / ".venv" / "bin" / "python"), "-m", "study"]
+BIN = Path(sys.executable).parent
+RUNNER = locate.binary("aem-run")
+AEM_STUDY = [str(BIN / "aem-study")]  # the installed command
 #: kg per normal litre of hydrogen: M(H2) / V_m(0 °C, 1 atm) = 2.01588 g/mol / 22.413969545 l/mol.
 KG_PER_NL = 2.01588e-3 / 22.413969545014137
 #: Two sequential-dispatch cases (sequential needs standby or off below the minimum).
@@ -315,16 +318,16 @@ def test_the_package_zip_runs_a_scenario_without_this_repository(tmp_path, fmu_p
         job = tmp_path / "job.pickle"
         job.write_bytes(pickle.dumps((scenario.key, scenario.definition, payload)))
         code = f"""
-import json, pickle, sys
-sys.meta_path = [f for f in sys.meta_path if "__editable__" not in getattr(f, "__module__", "")]
-sys.path = [p for p in sys.path if p not in ("", {str(ROOT)!r})]
-sys.path.insert(0, {archive!r})
-from study.worker import run_scenario
-import study.worker, wind_farm
-assert study.worker.__file__.startswith({archive!r}) and wind_farm.__file__.startswith({archive!r})
-print(json.dumps(run_scenario(*pickle.loads(open({str(job)!r}, "rb").read()))))
+import json, pickle
+import aem_electrolyser.study.worker as worker, aem_electrolyser.wind.farm as farm
+assert worker.__file__.startswith({archive!r}) and farm.__file__.startswith({archive!r}), worker.__file__
+print(json.dumps(worker.run_scenario(*pickle.loads(open({str(job)!r}, "rb").read()))))
 """
-        done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        # -S: no site processing, so the editable install's .pth is not read; the dependencies come
+        # from site-packages and the package only from the zip, as on a worker that has no install.
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join([archive, sysconfig.get_paths()["purelib"]])}
+        done = subprocess.run([sys.executable, "-S", "-c", code], cwd=tmp_path, capture_output=True, text=True,
+                              timeout=120, env=env)
         assert done.returncode == 0, done.stderr
         assert json.loads(done.stdout)["kpis"] == expected["kpis"]
     finally:
@@ -335,7 +338,7 @@ def test_an_existing_cluster_runs_the_study_as_the_serial_run(tmp_path, fmu_path
     """`--scheduler`: a `dask scheduler` and a `dask worker` of two processes on the loopback."""
     path = write_study(tmp_path, SMALL_WIND, fmu_path)
     _, serial = run_study(path, tmp_path / "serial", serial=True)
-    dask = str(ROOT / ".venv" / "bin" / "dask")
+    dask = str(BIN / "dask")
     address_file = tmp_path / "scheduler.json"
     quiet = dict(stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path)
     scheduler = subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",

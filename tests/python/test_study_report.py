@@ -2,18 +2,15 @@
 best cases and seed means the report states are computed here independently."""
 import hashlib
 import re
-import sys
 
 import numpy as np
 import pandas as pd
 import pytest
 from PIL import Image
 
-from conftest import ROOT
 
-sys.path.insert(0, str(ROOT))
-from study.kpis import KPIS, RUN_COLUMNS  # noqa: E402
-from study.report import layout, pivot, read_csv, write_report  # noqa: E402
+from aem_electrolyser.study.kpis import KPIS, RUN_COLUMNS
+from aem_electrolyser.study.report import layout, pivot, read_csv, write_report
 
 AXES = ["series", "mode", "hub size [%]", "seed", "hysteresis [%]"]
 MODES = {"equal": 1.0, "sequential": 0.9}

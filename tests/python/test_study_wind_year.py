@@ -2,7 +2,6 @@
 chunked Kaimal turbulence of examples/wind_farm.py). Expectations come from the model's
 definitions (the Weibull law, the AR(1) process, c(t), the Kaimal spectrum and the rotor
 filter), with tolerances of a few standard errors of the estimate."""
-import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -13,10 +12,9 @@ from scipy import stats
 from scipy.special import gamma, ndtri
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT))
-from study.wind_year import (  # noqa: E402
+from aem_electrolyser.wind.year import (  # noqa: E402
     DAY, FARM_RATING, HOUR, WindClimate, farm_power_year, hourly_mean_wind, wind_speeds)
-from wind_farm import N_TURBINES, Site, Turbine, kaimal_spectrum, power_curve  # noqa: E402  (examples/ on the path)
+from aem_electrolyser.wind.farm import N_TURBINES, Site, Turbine, kaimal_spectrum, power_curve
 
 CLIMATE = WindClimate()
 FLAT = replace(CLIMATE, seasonal_amplitude=0.0, diurnal_amplitude=0.0)  # stationary hours

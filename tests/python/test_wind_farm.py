@@ -1,13 +1,10 @@
 """examples/wind_farm.py: Kaimal turbulence, farm coherence, power curve, IEC gust."""
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy import signal
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples"))
-import wind_farm as wf  # noqa: E402
+from aem_electrolyser.wind import farm as wf
 
 
 @pytest.fixture(scope="module")

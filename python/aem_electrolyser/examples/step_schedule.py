@@ -1,0 +1,117 @@
+#!/usr/bin/env python3
+"""Demo: one AEM module follows a setpoint step schedule, simulated by fmpy.
+
+    python -m aem_electrolyser.examples.step_schedule [--out out/demo]
+
+Writes <out>.csv (every second) and <out>.png (current, voltage, power and hydrogen flow
+against time), then prints a short table; the FMU's messages go to stderr. Steps
+down follow the two-exponential response of G(s); steps up are held to the 0.22 A/s ramp limit
+until the response catches up.
+"""
+import argparse
+import contextlib
+import csv
+import sys
+from pathlib import Path
+
+import numpy as np
+from fmpy import read_model_description, simulate_fmu
+from aem_electrolyser.extras import require
+from aem_electrolyser.cli import add_fmu_option, resolve_fmu, quiet_on_closed_stdout, writable
+
+
+#: (time [s], setpoint [%]): hold, step down, step up, leave the window, return.
+SCHEDULE = [(0, 100), (300, 60), (900, 80), (1500, 100), (2100, 40), (2400, 70), (3000, 100)]
+STOP_TIME = 3600.0
+OUTPUTS = ["setpoint", "current", "voltage", "power", "h2Flow", "energy", "h2Produced"]
+
+
+def input_signal(model_description):
+    """Piecewise-constant setpoint as fmpy's structured input (repeated times mark steps).
+
+    fmpy expects a column for every input of the FMU; the inputs this demo does not drive
+    (`powerReference`, which a module in setpoint mode ignores) are held at their start values.
+    """
+    rows = []
+    for i, (t, sp) in enumerate(SCHEDULE):
+        if i > 0:
+            rows.append((t, SCHEDULE[i - 1][1]))
+        rows.append((t, sp))
+    rows.append((STOP_TIME, SCHEDULE[-1][1]))
+    held = [v for v in model_description.modelVariables if v.causality == "input" and v.name != "setpoint"]
+    dtype = [("time", np.float64), ("setpoint", np.float64)] + [(v.name, np.float64) for v in held]
+    return np.array([row + tuple(float(v.start) for v in held) for row in rows], dtype=dtype)
+
+
+def simulate(fmu):
+    signal = input_signal(read_model_description(str(fmu)))
+    with contextlib.redirect_stdout(sys.stderr):  # the FMU's log is no report
+        return simulate_fmu(
+            str(fmu), start_time=0.0, stop_time=STOP_TIME, step_size=1.0, output_interval=1.0,
+            input=signal, output=OUTPUTS,
+        )
+
+
+def write_csv(result, path):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["time [s]", "setpoint [%]", "current [A]", "voltage [V]", "power [W]",
+                    "h2Flow [Nl/h]", "energy [J]", "h2Produced [Nl]"])
+        for row in result:
+            w.writerow([f"{x:.10g}" for x in row])
+
+
+def plot(result, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = result["time"] / 60.0
+    fig, axes = plt.subplots(5, 1, figsize=(9, 10.5), sharex=True)
+    axes[0].step(t, result["setpoint"], where="post", color="tab:gray", label="setpoint (requested)")
+    axes[0].set_ylabel("setpoint [%]")
+    axes[0].axhspan(60, 100, color="tab:green", alpha=0.08, label="operating window")
+    axes[0].legend(loc="lower right", fontsize=8)
+    axes[1].plot(t, result["current"], color="tab:blue")
+    axes[1].set_ylabel("current [A]")
+    axes[2].plot(t, result["power"] / 1000.0, color="tab:red")
+    axes[2].set_ylabel("DC power [kW]")
+    axes[3].plot(t, result["voltage"], color="tab:orange")
+    axes[3].set_ylabel("voltage [V]")
+    axes[4].plot(t, result["h2Flow"], color="tab:green")
+    axes[4].set_ylabel("H$_2$ flow [Nl/h]")
+    axes[4].set_xlabel("time [min]")
+    fig.suptitle("AEM electrolyser module (FMU in fmpy): setpoint step schedule")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_fmu_option(parser)
+    parser.add_argument("--out", type=Path, default=Path("out") / "step_schedule")
+    args = parser.parse_args()
+    require("plots", "python -m aem_electrolyser.examples.step_schedule")
+    args.fmu = resolve_fmu(parser, args)
+    csv_path, png_path = writable(args.out.with_suffix(".csv")), writable(args.out.with_suffix(".png"))
+    result = simulate(args.fmu)
+    write_csv(result, csv_path)
+    plot(result, png_path)
+
+    print(f"{'t [s]':>7} {'setpoint [%]':>12} {'current [A]':>11} {'voltage [V]':>11} {'power [W]':>10} {'H2 [Nl/h]':>9}")
+    times = sorted({t for t, _ in SCHEDULE} | {t + d for t, _ in SCHEDULE for d in (10, 60)} | {STOP_TIME})
+    for t in times:
+        if t > STOP_TIME:
+            continue
+        r = result[int(round(t))]
+        print(f"{r['time']:7.0f} {r['setpoint']:12.1f} {r['current']:11.3f} {r['voltage']:11.3f} {r['power']:10.1f} {r['h2Flow']:9.1f}")
+    last = result[-1]
+    print(f"energy {last['energy'] / 3.6e6:.4f} kWh, hydrogen {last['h2Produced']:.1f} Nl in {STOP_TIME:.0f} s")
+    print(f"wrote {csv_path} and {png_path}")
+
+
+if __name__ == "__main__":
+    quiet_on_closed_stdout(main)

@@ -1,0 +1,66 @@
+"""Optional dependencies (the extras of `pip install aem-electrolyser[...]`): a feature whose
+extra is not installed ends with one line naming the `pip install` that brings it, not with a
+traceback.
+
+    require("study", "aem-study")            # a command: exits (status 1) with the line
+    with needs("mosaik", __name__):          # a module's imports: MissingExtra (an ImportError),
+        import mosaik                        # or that line and exit when run as the program
+"""
+import contextlib
+import importlib
+import sys
+
+#: extra -> the modules it brings (checked in this order).
+EXTRAS = {
+    "plots": ("matplotlib",),
+    "study": ("distributed", "pyarrow", "pandas", "tqdm", "matplotlib"),
+    "reserves": ("matplotlib",),
+    "mosaik": ("mosaik", "mosaik_api_v3", "mosaik_components.pandapower", "mosaik_csv", "pandapower", "loguru",
+               "matplotlib"),
+    "helics": ("helics", "pandapower", "matplotlib"),
+    "grid": ("tops", "matplotlib"),
+}
+
+
+class MissingExtra(ImportError):
+    """An optional dependency is not installed; the message names the extra that brings it."""
+
+
+def message(extra, module, who):
+    return f"{who} needs the [{extra}] extra ({module} is not installed): pip install 'aem-electrolyser[{extra}]'"
+
+
+def missing(extra):
+    """The first module of `extra` that cannot be imported, or None."""
+    for module in EXTRAS[extra]:
+        try:
+            importlib.import_module(module)
+        except ImportError:
+            return module
+    return None
+
+
+def require(extra, who):
+    """Ends the program (status 1) with one line if a module of `extra` is missing."""
+    module = missing(extra)
+    if module is not None:
+        sys.exit(message(extra, module, who))
+
+
+def _program():
+    spec = getattr(sys.modules.get("__main__"), "__spec__", None)
+    return f"python -m {spec.name}" if spec is not None else sys.argv[0]
+
+
+@contextlib.contextmanager
+def needs(extra, importer):
+    """Imports of the module named `importer` (its __name__) that need `extra`: an ImportError in
+    them becomes MissingExtra, or the one-line message and exit when that module is the program."""
+    try:
+        yield
+    except ImportError as e:
+        if isinstance(e, MissingExtra):
+            raise
+        if importer == "__main__":
+            raise SystemExit(message(extra, e.name or e, _program())) from None
+        raise MissingExtra(message(extra, e.name or e, importer)) from e

@@ -1,0 +1,81 @@
+"""The electrolyser hub FMU driven step by step through fmpy's FMU2Slave (the examples, the
+mosaik and HELICS tests).
+
+    hub = HubFMU(nModules=25000, nModules=25000, dispatch=1, belowMinimum=0, powerInput=True)
+    hub.initialize(powerReference=45e6)       # the hub starts in steady state for this input
+    hub.step(1.0, powerReference=46e6)        # hold the reference over [t, t + 1 s]
+    hub.get("hubPower", "hubEnergy")
+
+Parameters and inputs are set by name with the setter of their FMI type (Real, Integer or
+Enumeration, Boolean), so the FMU's variable names are the only interface.
+"""
+import shutil
+
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+
+from aem_electrolyser.locate import fmu_path as locate_fmu
+
+
+class HubFMU:
+    def __init__(self, fmu_path=None, instance_name="hub", start_time=0.0, **parameters):
+        fmu_path = locate_fmu(fmu_path)
+        md = read_model_description(str(fmu_path))
+        self._vars = {v.name: v for v in md.modelVariables}
+        missing = [n for n in ("nModules", "powerReference", "hubPower") if n not in self._vars]
+        if missing:
+            raise ValueError(f"{fmu_path} has no hub variables {missing}: an older FMU?")
+        self._unzipdir = extract(str(fmu_path))
+        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=self._unzipdir,
+                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance_name)
+        self.fmu.instantiate()
+        self.fmu.setupExperiment(startTime=start_time)
+        self.time = start_time
+        self.initialized = False
+        self.set(**parameters)
+
+    def set(self, **values):
+        for name, value in values.items():
+            v = self._vars[name]
+            if v.type == "Real":
+                self.fmu.setReal([v.valueReference], [float(value)])
+            elif v.type in ("Integer", "Enumeration"):
+                self.fmu.setInteger([v.valueReference], [int(value)])
+            elif v.type == "Boolean":
+                self.fmu.setBoolean([v.valueReference], [bool(value)])
+            else:
+                raise TypeError(f"{name}: unsupported type {v.type}")
+
+    def get(self, *names):
+        out = []
+        for name in names:
+            v = self._vars[name]
+            getter = {"Real": self.fmu.getReal, "Integer": self.fmu.getInteger,
+                      "Enumeration": self.fmu.getInteger, "Boolean": self.fmu.getBoolean}[v.type]
+            out.append(getter([v.valueReference])[0])
+        return out[0] if len(names) == 1 else out
+
+    def initialize(self, **inputs):
+        """Set the inputs at the start time; the FMU starts in steady state for them."""
+        self.set(**inputs)
+        self.fmu.enterInitializationMode()
+        self.fmu.exitInitializationMode()
+        self.initialized = True
+
+    def step(self, h, **inputs):
+        """Set the inputs (held over the step), then advance the FMU by h seconds."""
+        self.set(**inputs)
+        self.fmu.doStep(currentCommunicationPoint=self.time, communicationStepSize=h)
+        self.time += h
+
+    def close(self):
+        if self.initialized:
+            self.fmu.terminate()
+        self.fmu.freeInstance()
+        shutil.rmtree(self._unzipdir, ignore_errors=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

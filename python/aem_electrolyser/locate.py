@@ -1,0 +1,94 @@
+"""Where the installed package finds its FMU and its native commands: the one place that knows.
+
+An installed wheel carries them inside the package (`data/AemElectrolyser.fmu`,
+`bin/aem-identify`, `bin/aem-run`); an editable install in a source checkout uses the build
+tree (`target/fmu/`, `target/release/`, `target/dist/<platform>/`), which `bash scripts/demo.sh`
+or `bash scripts/test.sh` fill.
+"""
+import os
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parent
+MODEL_IDENTIFIER = "AemElectrolyser"
+FMU_NAME = f"{MODEL_IDENTIFIER}.fmu"
+#: The environment variable that overrides the FMU everywhere.
+FMU_VARIABLE = "AEM_FMU"
+
+
+class NotBuilt(FileNotFoundError):
+    """The FMU or a native command is not in this installation; the message says how to get it."""
+
+
+def checkout():
+    """The source checkout this package runs from (an editable install), or None."""
+    root = PACKAGE.parents[1]
+    return root if (root / "Cargo.toml").is_file() and (root / "modelDescription.xml").is_file() else None
+
+
+def _target():
+    root = checkout()
+    if root is None:
+        return None
+    return Path(os.environ.get("CARGO_TARGET_DIR", root / "target"))
+
+
+def fmu_path(path=None):
+    """The FMU to use: `path` if given, else the environment variable AEM_FMU, else the FMU of
+    this installation (the wheel's, or the checkout's `target/fmu/AemElectrolyser.fmu`).
+
+    Raises NotBuilt when the chosen file does not exist."""
+    if path is None:
+        path = os.environ.get(FMU_VARIABLE) or None
+    if path is not None:
+        path = Path(path)
+        if not path.is_file():
+            raise NotBuilt(f"{path}: no such FMU")
+        return path
+    bundled = PACKAGE / "data" / FMU_NAME
+    if bundled.is_file():
+        return bundled
+    target = _target()
+    if target is not None and (target / "fmu" / FMU_NAME).is_file():
+        return target / "fmu" / FMU_NAME
+    if target is not None:
+        raise NotBuilt(f"{target / 'fmu' / FMU_NAME} not found: build it with bash scripts/demo.sh "
+                       f"(or set {FMU_VARIABLE})")
+    raise NotBuilt(f"this installation of aem-electrolyser has no FMU ({bundled}); "
+                   f"install a platform wheel or set {FMU_VARIABLE}")
+
+
+def exe(name):
+    """`name` with this platform's executable suffix."""
+    return f"{name}.exe" if os.name == "nt" else name
+
+
+def binary(name):
+    """The native command `name` (aem-identify or aem-run) of this installation."""
+    bundled = PACKAGE / "bin" / exe(name)
+    if bundled.is_file():
+        return bundled
+    target = _target()
+    if target is not None:
+        built = target / "release" / exe(name)
+        if built.is_file():
+            return built
+        raise NotBuilt(f"{built} not found: build it with cargo build --release --bins")
+    raise NotBuilt(f"this installation of aem-electrolyser has no {exe(name)} ({bundled}): "
+                   "install a platform wheel (pip install aem-electrolyser on Linux x86-64 or Windows x64)")
+
+
+#: aem-study's worker platforms (study.worker.this_platform) -> (FMI platform folder, aem-run's file).
+WORKER_PLATFORMS = {"linux-x86_64": ("linux64", "aem-run"), "windows-amd64": ("win64", "aem-run.exe")}
+
+
+def portable_runners():
+    """{worker platform: aem-run built to run on other machines of it}: in a checkout the builds
+    of target/dist/<platform>/ (packaging/platforms.py aem-run: glibc 2.17, win64); in a wheel
+    its own aem-run, which is that portable build for the wheel's platform."""
+    target = _target()
+    if target is not None:
+        found = {platform: target / "dist" / folder / file for platform, (folder, file) in WORKER_PLATFORMS.items()}
+        return {platform: path for platform, path in found.items() if path.is_file()}
+    bundled = PACKAGE / "bin" / exe("aem-run")
+    own = "windows-amd64" if os.name == "nt" else "linux-x86_64"
+    return {own: bundled} if bundled.is_file() else {}

@@ -1,0 +1,3 @@
+from aem_electrolyser.commands import study
+
+study()

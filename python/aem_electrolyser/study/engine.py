@@ -1,0 +1,138 @@
+"""Runs a study's scenarios that are not stored yet: serially in this process, on a Dask
+LocalCluster (one single-threaded worker process per core) or on an existing Dask cluster.
+
+Every scenario is one Dask task named by its key; the FMU, aem-run and the series' data go to
+each worker once (scattered, broadcast); a record is stored the moment its task finishes. A
+task whose worker dies is rerun by Dask on another worker; a study stopped with Ctrl-C keeps
+what finished. The KPIs do not depend on where a scenario ran (same binary, same inputs)."""
+import contextlib
+import logging
+import os
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+
+from .. import locate
+from .progress import Progress
+from .store import Store
+from .worker import Bundle, run_scenario, this_platform
+
+PACKAGE = Path(__file__).resolve().parents[1]
+
+
+def runners(runner=None):
+    """Platform -> aem-run's bytes: `runner` for this platform if given; else the portable
+    builds that exist and this machine's release build for its own platform."""
+    if runner is not None:
+        found = {this_platform(): Path(runner)}
+    else:
+        # Portable builds go to workers of every platform (glibc 2.17 runs on old Linux clusters,
+        # the .exe on Windows workers); this installation's own aem-run if none is newer.
+        found = locate.portable_runners()
+        own = locate.binary("aem-run")
+        portable = found.get(this_platform())
+        if portable is None or (portable != own and portable.stat().st_mtime < own.stat().st_mtime):
+            if portable is not None:
+                print(f"aem-study: {portable} is older than {own}: shipping the latter, which needs "
+                      f"this machine's C library on the workers (rebuild: packaging/platforms.py aem-run)",
+                      file=sys.stderr)
+            found[this_platform()] = own
+    for path in found.values():
+        if not path.is_file():
+            raise FileNotFoundError(f"no aem-run at {path} (build it: cargo build --release -p aem-run)")
+    return {name: path.read_bytes() for name, path in found.items()}
+
+
+def bundle(study, runner=None):
+    """What the workers need of `study`: the FMU, the runners, files and series."""
+    return Bundle(fmu=study.fmu_bytes, runners=runners(runner), files=dict(study.files),
+                  series=study.file_series_data())
+
+
+def run(study, out_dir, *, scheduler=None, workers=None, serial=False, runner=None,
+        retry_failed=False, stream=None):
+    """Runs what is missing; returns {key: record} of every scenario of the study that has one."""
+    store = Store(out_dir)
+    scenarios = study.scenarios()
+    records = {}
+    for s in scenarios:
+        record = store.get(s.key)
+        if record is not None and (record["status"] == "done" or not retry_failed):
+            records[s.key] = record
+    todo = [s for s in scenarios if s.key not in records]
+    progress = Progress(len(scenarios), len(records), **({"stream": stream} if stream else {}))
+    try:
+        if todo:
+            payload = bundle(study, runner)
+            if serial:
+                _run_serial(todo, payload, store, records, progress)
+            else:
+                _run_dask(todo, payload, store, records, progress, scheduler, workers)
+    finally:
+        progress.close()
+    return records
+
+
+def _run_serial(todo, payload, store, records, progress):
+    for i, s in enumerate(todo):
+        record = run_scenario(s.key, s.definition, payload)
+        store.put(record)
+        records[s.key] = record
+        progress.finished(record, 1 if i + 1 < len(todo) else 0, s.labels)
+
+
+@contextlib.contextmanager
+def _client(scheduler, workers):
+    from distributed import Client, LocalCluster
+    if scheduler:
+        with Client(scheduler) as client:
+            archive = _package_zip()
+            try:
+                client.upload_file(archive)
+            finally:
+                os.unlink(archive)
+            yield client
+        return
+    n = workers or os.cpu_count() or 1
+    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None, silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        yield client
+
+
+def _package_zip():
+    """The aem_electrolyser package's Python modules as a zip Dask sends to the workers of an
+    existing cluster, which need not have it installed (they need its core dependencies and
+    the [study] extra's)."""
+    handle, archive = tempfile.mkstemp(prefix="aem-electrolyser-", suffix=".zip")
+    with os.fdopen(handle, "wb") as f, zipfile.ZipFile(f, "w") as z:
+        for file in sorted(PACKAGE.rglob("*.py")):
+            z.write(file, f"aem_electrolyser/{file.relative_to(PACKAGE).as_posix()}")
+    return archive
+
+
+def _run_dask(todo, payload, store, records, progress, scheduler, workers):
+    from distributed import as_completed
+    labels = {s.key: s.labels for s in todo}
+    with _client(scheduler, workers) as client:
+        threads = sum(client.nthreads().values())
+        shared = client.scatter(payload, broadcast=True, hash=False)
+        futures = [client.submit(run_scenario, s.key, s.definition, shared, key=f"aem-study-{s.key}", pure=False)
+                   for s in todo]
+        pending = len(futures)
+        try:
+            for future in as_completed(futures):
+                pending -= 1
+                key = future.key.removeprefix("aem-study-")
+                try:
+                    record = future.result()
+                except Exception as e:  # the task's worker died too often: not the scenario's fault
+                    record = {"scenario": key, "status": "lost", "message": f"{type(e).__name__}: {e}"}
+                    progress.finished(record, min(pending, threads), labels[key])
+                    continue
+                store.put(record)
+                records[key] = record
+                progress.finished(record, min(pending, threads), labels[key])
+        except KeyboardInterrupt:
+            client.cancel(futures)
+            raise
