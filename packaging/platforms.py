@@ -12,6 +12,9 @@ identification tool and aem-study's native master for users of each platform:
 
     python packaging/platforms.py aem-identify|aem-run [--platforms win64]
         -> target/dist/<platform>/aem-identify[.exe], aem-run[.exe]
+    python packaging/platforms.py all [--platforms win64]
+        -> the whole workspace in one build per platform (the FMU's library, which
+           packaging/package.py --no-build then zips, and both commands into target/dist/)
 
 Build times go to stderr; the output paths are checked for writing before anything is built.
 
@@ -138,19 +141,27 @@ def build(platform, cargo_args, extra_env=None):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description="Build a command of the workspace for each platform.")
-    parser.add_argument("tool", choices=["aem-identify", "aem-run"], help="the command to build")
+    parser.add_argument("tool", choices=["aem-identify", "aem-run", "all"],
+                        help="the command to build, or all: the workspace (the FMU's library and both commands)")
     parser.add_argument("--platforms", default=",".join(PLATFORMS), help="comma-separated FMI platforms")
     args = parser.parse_args(argv)
     names = [p.strip() for p in args.platforms.split(",") if p.strip()]
     for name in names:
         if name not in PLATFORMS:
             parser.error(f"unknown platform {name}; choose from {', '.join(PLATFORMS)}")
-    outputs = {name: writable(TARGET / "dist" / name / f"{args.tool}{PLATFORMS[name].exe_suffix}") for name in names}
-    for name, output in outputs.items():
-        release, _ = build(PLATFORMS[name], ["--bin", args.tool, "--package", args.tool, "--locked"])
-        shutil.copy2(release / output.name, output)
-    for output in outputs.values():
-        print(f"wrote {output}")
+    tools = ["aem-identify", "aem-run"] if args.tool == "all" else [args.tool]
+    outputs = {name: [writable(TARGET / "dist" / name / f"{tool}{PLATFORMS[name].exe_suffix}") for tool in tools]
+               for name in names}
+    for name, paths in outputs.items():
+        if args.tool == "all":  # the library from the repository's model description (package.py checks its GUID)
+            release, _ = build(PLATFORMS[name], ["--workspace", "--locked"], {"AEM_MODEL_DESCRIPTION": ""})
+        else:
+            release, _ = build(PLATFORMS[name], ["--bin", args.tool, "--package", args.tool, "--locked"])
+        for output in paths:
+            shutil.copy2(release / output.name, output)
+    for paths in outputs.values():
+        for output in paths:
+            print(f"wrote {output}")
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs what building and testing need, and nothing when it is already there:
+# Installs what building and testing need, and nothing when it is already there (the demo needs
+# far less: scripts/demo.sh installs its own; scripts/prerequisites.sh says what is supported):
 # - libclang (fmi-sys runs bindgen on the FMI 2.0 headers), from Debian's packages;
 # - gcc and valgrind (tests/python/test_importers.py compiles the C master in tests/c_master
 #   and runs it under valgrind memcheck and AddressSanitizer), from Debian's packages;
@@ -9,25 +10,14 @@
 #   download, 1.9 GB installed, under a minute); cargo-zigbuild and
 #   ziglang (linux64 against glibc 2.17) come with requirements.txt;
 # - cargo-fuzz (scripts/fuzz.sh), from crates.io; libtbb12 (Ecos, an importer in the tests);
-# - .venv with the Python tools of requirements.txt (fmpy, numpy, scipy, pytest, ...) and the
-#   aem-study command (pyproject.toml).
+# - .venv with the Python tools of requirements.txt (fmpy, numpy, scipy, pytest, ...; uv installs
+#   them) and the package aem_electrolyser itself, editable, with its commands (pyproject.toml).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-sudo=""
-[ "$(id -u)" -ne 0 ] && sudo="sudo"
-apt_updated=""
-apt_install() {
-  [ -n "$apt_updated" ] || $sudo apt-get update -qq
-  apt_updated=1
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "$@" >/dev/null
-}
-
-# (grep without -q reads all of ldconfig's output, so pipefail never sees a SIGPIPE.)
-if [ -z "${LIBCLANG_PATH:-}" ] && ! { /sbin/ldconfig -p 2>/dev/null || true; } | grep -E 'libclang(-[0-9.]+)?\.so' >/dev/null; then
-  echo "setup: installing libclang-dev (needed by bindgen)"
-  apt_install libclang-dev
-fi
+source scripts/prerequisites.sh
+require_toolchains
+require_libclang
 
 if ! command -v gcc >/dev/null || ! command -v valgrind >/dev/null; then
   echo "setup: installing gcc, libc6-dev and valgrind (the C master and its memory test)"
@@ -50,18 +40,18 @@ if ! cargo fuzz --version >/dev/null 2>&1; then
   cargo install cargo-fuzz --locked --version 0.13.2 --quiet
 fi
 
-# Debian's own python3 needs python3-venv for `python3 -m venv`.
-python3 -c 'import ensurepip' 2>/dev/null || apt_install python3-venv
-
+require_venv
+# uv installs the pins (from the registry and its cache) in seconds where pip takes minutes.
 if [ ! -x .venv/bin/python ] || ! cmp -s requirements.txt .venv/requirements.installed; then
-  echo "setup: creating .venv from requirements.txt"
-  python3 -m venv .venv
-  .venv/bin/python -m pip install -q --disable-pip-version-check -r requirements.txt
+  echo "setup: installing requirements.txt into .venv"
+  [ -x .venv/bin/python ] || python3 -m venv .venv
+  [ -x .venv/bin/uv ] || .venv/bin/python -m pip install -q --disable-pip-version-check "$(grep '^uv==' requirements.txt)"
+  .venv/bin/uv pip install --quiet --python .venv/bin/python -r requirements.txt
   cp requirements.txt .venv/requirements.installed
 fi
 
 # The package aem_electrolyser (pyproject.toml), editable: python/ of this checkout, and its commands.
 if [ ! -x .venv/bin/aem-prequalify ]; then
   echo "setup: installing the aem-electrolyser package (editable) into .venv"
-  .venv/bin/python -m pip install -q --disable-pip-version-check --no-deps --no-build-isolation -e .
+  .venv/bin/uv pip install --quiet --python .venv/bin/python --no-deps --no-build-isolation -e .
 fi

@@ -1,18 +1,25 @@
 #!/usr/bin/env bash
-# Quick start, command 2: every test. Builds and packages the FMU (linux64 and win64 binaries),
-# aem-identify.exe and aem-run for each platform (aem-study's native master), then runs the Rust
-# tests (model, C ABI in process, the packaged .fmu through the `fmi` crate, aem-identify on
-# synthetic campaigns) and the pytest suite (the packaged .fmu through fmpy, fmpy validate,
-# fmutool -check, the win64 DLL, aem-identify.exe and aem-run.exe under Wine, the glibc level,
-# the FMI cross-check tree, packaging with identified parameters, aem-study on Dask), then
-# fuzzes each byte-level input for 30 s (scripts/fuzz.sh).
+# Quick start, command 2: every test. Installs everything (scripts/setup.sh), lints the Python,
+# builds the release bundle into dist/ (packaging/release.py: the workspace for linux64 against
+# glibc 2.17 and for win64, the two-platform FMU, both wheels, the sdist, the plain aem-identify
+# downloads, SHA256SUMS), then runs the Rust tests (model, C ABI in process, the packaged .fmu
+# through the `fmi` crate, aem-identify on synthetic campaigns) and the pytest suite (the
+# packaged .fmu through fmpy and five more importers, the win64 DLL and the commands under Wine,
+# the glibc level, the installed wheels and the sdist, the examples, the frameworks, reserves,
+# aem-study on Dask), then fuzzes each byte-level input (scripts/fuzz.sh). Each phase's time is
+# printed on stderr.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/setup.sh
-cargo build --release --bins --locked
-.venv/bin/python packaging/package.py
-.venv/bin/python packaging/platforms.py aem-identify --platforms win64
-.venv/bin/python packaging/platforms.py aem-run
-cargo test --locked
-.venv/bin/python -m pytest tests/python -q
-bash scripts/fuzz.sh
+phase() {
+  local started=$SECONDS
+  "$@"
+  echo "test.sh: $* took $((SECONDS - started)) s" >&2
+}
+phase bash scripts/setup.sh
+phase .venv/bin/ruff check --quiet python tests bench packaging fuzz scripts
+phase .venv/bin/python packaging/release.py
+phase cargo build --release --bins --locked
+phase cargo test --locked
+phase .venv/bin/python -m pytest tests/python -q
+phase bash scripts/fuzz.sh
+echo "test.sh: every test passed in $SECONDS s" >&2

@@ -48,19 +48,22 @@ def require(extra, who):
 
 
 def _program():
+    """`python -m NAME` when the program is a module of this package, else None."""
     spec = getattr(sys.modules.get("__main__"), "__spec__", None)
-    return f"python -m {spec.name}" if spec is not None else sys.argv[0]
+    return f"python -m {spec.name}" if spec is not None and spec.name.startswith("aem_electrolyser.") else None
 
 
 @contextlib.contextmanager
 def needs(extra, importer):
     """Imports of the module named `importer` (its __name__) that need `extra`: an ImportError in
-    them becomes MissingExtra, or the one-line message and exit when that module is the program."""
+    them ends the program with the one-line message when the program is a module of this
+    package, and becomes MissingExtra (an ImportError with that message) otherwise."""
     try:
         yield
     except ImportError as e:
         if isinstance(e, MissingExtra):
             raise
-        if importer == "__main__":
-            raise SystemExit(message(extra, e.name or e, _program())) from None
+        program = _program()
+        if program is not None:
+            raise SystemExit(message(extra, e.name or e, program)) from None
         raise MissingExtra(message(extra, e.name or e, importer)) from e

@@ -63,16 +63,19 @@ def exe(name):
 
 
 def binary(name):
-    """The native command `name` (aem-identify or aem-run) of this installation."""
+    """The native command `name` (aem-identify or aem-run) of this installation: the wheel's, or
+    in a checkout the newer of this machine's build (target/release/) and the portable one
+    (target/dist/<platform>/, which scripts/test.sh builds)."""
     bundled = PACKAGE / "bin" / exe(name)
     if bundled.is_file():
         return bundled
     target = _target()
     if target is not None:
-        built = target / "release" / exe(name)
-        if built.is_file():
-            return built
-        raise NotBuilt(f"{built} not found: build it with cargo build --release --bins")
+        own = "win64" if os.name == "nt" else "linux64"
+        built = [p for p in (target / "release" / exe(name), target / "dist" / own / exe(name)) if p.is_file()]
+        if built:
+            return max(built, key=lambda p: p.stat().st_mtime)
+        raise NotBuilt(f"{target / 'release' / exe(name)} not found: build it with cargo build --release --bins")
     raise NotBuilt(f"this installation of aem-electrolyser has no {exe(name)} ({bundled}): "
                    "install a platform wheel (pip install aem-electrolyser on Linux x86-64 or Windows x64)")
 

@@ -2,9 +2,13 @@
 and the paper's parameters with the closed-form responses the tests compare against."""
 import itertools
 import math
+import os
 import shutil
 from ctypes import byref
 from pathlib import Path
+
+import subprocess
+from pathlib import PureWindowsPath
 
 import pytest
 from fmpy import extract, read_model_description
@@ -169,3 +173,39 @@ def unlimited_step_response(u0, u1, t, p=PAPER):
     a, b = modal_weights(p)
     k = p["gain"]
     return k * u1 + k * (u0 - u1) * (a * math.exp(-t / p["tauPole1"]) + b * math.exp(-t / p["tauPole2"]))
+
+
+WINE = Path("/usr/lib/wine/wine64")
+
+
+def windows_path(path):
+    """Wine's name for a path of this machine: / is drive Z:."""
+    return str(PureWindowsPath("Z:/") / Path(path).resolve().relative_to("/"))
+
+
+@pytest.fixture(scope="session")
+def wine(tmp_path_factory):
+    """Runs a Windows program under Wine in a throwaway prefix, with the test-only
+    bcryptprimitives.dll on its search path; returns its stdout (CRLF as LF)."""
+    gcc = shutil.which("x86_64-w64-mingw32-gcc")
+    if not WINE.is_file() or gcc is None:
+        pytest.fail("wine64 and mingw-w64 are not installed (scripts/setup.sh installs them)")
+    base = tmp_path_factory.mktemp("wine")
+    shim = base / "shim"
+    shim.mkdir()
+    subprocess.run([gcc, "-O2", "-shared", "-o", str(shim / "bcryptprimitives.dll"),
+                    str(ROOT / "tests" / "windows" / "bcryptprimitives.c"), "-ladvapi32"], check=True)
+    env = dict(os.environ, WINEPREFIX=str(base / "prefix"), WINEDEBUG="-all", WINEPATH=windows_path(shim))
+    env.pop("DISPLAY", None)
+
+    def run_windows(exe, *args, shim_on_path=True, check=True):
+        cmd = [WINE, exe, *args]
+        done = subprocess.run([str(c) for c in cmd], capture_output=True, timeout=600,
+                              env=env if shim_on_path else {**env, "WINEPATH": ""})
+        out = done.stdout.decode(errors="replace").replace("\r\n", "\n")
+        if check:
+            assert done.returncode == 0, f"{cmd}\nexit {done.returncode}\n{out}\n{done.stderr.decode(errors='replace')}"
+            return out
+        return done
+
+    return run_windows

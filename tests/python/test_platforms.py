@@ -9,17 +9,16 @@ Wine 8.0 lacks bcryptprimitives.dll, which Rust's standard library imports on Wi
 Windows 10 and later has it): tests/windows/bcryptprimitives.c, built here, stands in for it on
 Wine's search path and is never shipped."""
 import json
-import os
 import re
 import shutil
 import subprocess
 import zipfile
-from pathlib import Path, PureWindowsPath
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, windows_path
 
 MODEL = "AemElectrolyser"
 WINE = Path("/usr/lib/wine/wine64")
@@ -50,11 +49,6 @@ def run(cmd, timeout=300, **kwargs):
     return done.stdout.decode(errors="replace")
 
 
-def windows_path(path):
-    """Wine's name for a path of this machine: / is drive Z:."""
-    return str(PureWindowsPath("Z:/") / Path(path).resolve().relative_to("/"))
-
-
 # ------------------------------------------------------------------------------ fixtures
 
 
@@ -72,32 +66,6 @@ def fmu_dir(fmu_path, tmp_path_factory):
     with zipfile.ZipFile(fmu_path) as fmu:
         fmu.extractall(target)
     return target
-
-
-@pytest.fixture(scope="module")
-def wine(tmp_path_factory):
-    """Runs a Windows program under Wine in a throwaway prefix, with the test-only
-    bcryptprimitives.dll on its search path; returns its stdout (CRLF as LF)."""
-    require(WINE)
-    gcc = require(MINGW_GCC)
-    base = tmp_path_factory.mktemp("wine")
-    shim = base / "shim"
-    shim.mkdir()
-    run([gcc, "-O2", "-shared", "-o", shim / "bcryptprimitives.dll", ROOT / "tests" / "windows" / "bcryptprimitives.c", "-ladvapi32"])
-    env = dict(os.environ, WINEPREFIX=str(base / "prefix"), WINEDEBUG="-all", WINEPATH=windows_path(shim))
-    env.pop("DISPLAY", None)
-
-    def run_windows(exe, *args, shim_on_path=True, check=True):
-        cmd = [WINE, exe, *args]
-        done = subprocess.run([str(c) for c in cmd], capture_output=True, timeout=600,
-                              env=env if shim_on_path else {**env, "WINEPATH": ""})
-        out = done.stdout.decode(errors="replace").replace("\r\n", "\n")
-        if check:
-            assert done.returncode == 0, f"{cmd}\nexit {done.returncode}\n{out}\n{done.stderr.decode(errors='replace')}"
-            return out
-        return done
-
-    return run_windows
 
 
 @pytest.fixture(scope="module")
