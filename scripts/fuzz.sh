@@ -15,6 +15,7 @@ cd "$(dirname "$0")/.."
 limit=(-max_total_time="${SECONDS_PER_TARGET:-30}")
 [ -n "${RUNS:-}" ] && limit=(-runs="$RUNS")
 .venv/bin/python fuzz/seeds.py
+export PATH="$PWD/.venv/bin:$PATH"   # cargo-fuzz (requirements.txt)
 for target in fmu_state parameter_file identify_csv; do
   echo "== fuzz $target (${limit[*]})"
   RUSTC_BOOTSTRAP=1 cargo fuzz run --release --debug-assertions "$target" "fuzz/corpus/$target" -- \

@@ -9,7 +9,8 @@
 #   and wine64 to test the Windows binaries here, from Debian's packages (about 300 MB to
 #   download, 1.9 GB installed, under a minute); cargo-zigbuild and
 #   ziglang (linux64 against glibc 2.17) come with requirements.txt;
-# - cargo-fuzz (scripts/fuzz.sh), from crates.io; libtbb12 (Ecos, an importer in the tests);
+# - libtbb12 (Ecos, an importer in the tests); cargo-fuzz (scripts/fuzz.sh) comes built with
+#   requirements.txt (a wheel that carries the binary), instead of a minute of cargo install;
 # - .venv with the Python tools of requirements.txt (fmpy, numpy, scipy, pytest, ...; uv installs
 #   them) and the package aem_electrolyser itself, editable, with its commands (pyproject.toml).
 set -euo pipefail
@@ -17,30 +18,25 @@ cd "$(dirname "$0")/.."
 
 source scripts/prerequisites.sh
 require_toolchains
-require_libclang
 
-if ! command -v gcc >/dev/null || ! command -v valgrind >/dev/null; then
-  echo "setup: installing gcc, libc6-dev and valgrind (the C master and its memory test)"
-  apt_install gcc libc6-dev valgrind
+# Every missing Debian package in one apt-get call.
+missing=()
+{ /sbin/ldconfig -p 2>/dev/null || true; } | grep -E 'libclang(-[0-9.]+)?\.so' >/dev/null || [ -n "${LIBCLANG_PATH:-}" ] \
+  || missing+=(libclang-dev)                                   # bindgen (fmi-sys)
+command -v gcc >/dev/null || missing+=(gcc libc6-dev)          # the C master of the tests
+command -v valgrind >/dev/null || missing+=(valgrind)          # its memory test
+command -v x86_64-w64-mingw32-gcc >/dev/null || missing+=(gcc-mingw-w64-x86-64-win32)  # win64 linker
+[ -x /usr/bin/rustc ] || missing+=(rustc-web)                  # win64: Debian's rustc ...
+[ -x /usr/bin/cargo ] || missing+=(cargo-web)                  # ... and cargo
+[ -d /usr/lib/rustlib/src/rust/library ] || missing+=(rust-web-src)  # ... with the std's sources
+[ -x /usr/lib/wine/wine64 ] || missing+=(wine64)               # the win64 binaries' tests
+[ -e /usr/lib/x86_64-linux-gnu/libtbb.so.12 ] || missing+=(libtbb12)  # Ecos, an importer of the tests
+python3 -c 'import ensurepip' 2>/dev/null || missing+=(python3-venv)
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "setup: installing ${missing[*]} (Debian's packages)"
+  apt_install "${missing[@]}"
 fi
 
-if ! command -v x86_64-w64-mingw32-gcc >/dev/null || [ ! -x /usr/bin/rustc ] || [ ! -d /usr/lib/rustlib/src/rust/library ] \
-   || [ ! -x /usr/lib/wine/wine64 ]; then
-  echo "setup: installing mingw-w64, rustc-web, cargo-web, rust-web-src and wine64 (the win64 binaries and their tests)"
-  apt_install gcc-mingw-w64-x86-64-win32 rustc-web cargo-web rust-web-src wine64
-fi
-
-if [ ! -e /usr/lib/x86_64-linux-gnu/libtbb.so.12 ]; then
-  echo "setup: installing libtbb12 (the Ecos co-simulation engine of the tests)"
-  apt_install libtbb12
-fi
-
-if ! cargo fuzz --version >/dev/null 2>&1; then
-  echo "setup: installing cargo-fuzz (coverage-guided fuzzing)"
-  cargo install cargo-fuzz --locked --version 0.13.2 --quiet
-fi
-
-require_venv
 # uv installs the pins (from the registry and its cache) in seconds where pip takes minutes.
 if [ ! -x .venv/bin/python ] || ! cmp -s requirements.txt .venv/requirements.installed; then
   echo "setup: installing requirements.txt into .venv"
