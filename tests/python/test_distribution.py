@@ -209,14 +209,16 @@ def test_the_linux_wheel_is_tagged_manylinux2014_and_holds_the_linux_commands():
 
 
 def test_the_sdist_builds_a_working_wheel_from_its_own_files(tmp_path):
-    """Unpacked outside the checkout and built there (cargo and this venv's hatchling; the
-    checkout's cargo target folder serves as cache of the compiled crates of the registry)."""
+    """Unpacked outside the checkout and built there (cargo and this venv's hatchling). The
+    checkout's cargo target folder is the build's CARGO_TARGET_DIR, as a cache: the registry's
+    crates compiled for this machine are reused, the workspace's own crates (another path) are
+    compiled from the sdist's files."""
     sdist = dist_file(f"aem_electrolyser-{VERSION}.tar.gz")
     with tarfile.open(sdist) as tar:
         tar.extractall(tmp_path, filter="data")
     source = tmp_path / f"aem_electrolyser-{VERSION}"
     assert not (source / ".git").exists() and not (source / "target").exists()
-    env = dict(os.environ, CARGO_TARGET_DIR=str(ROOT / "target" / "sdist"))
+    env = dict(os.environ, CARGO_TARGET_DIR=str(ROOT / "target"))
     env.pop("AEM_WHEEL_PLATFORM", None)
     run([sys.executable, "-m", "build", "--wheel", "--no-isolation", "--outdir", tmp_path / "wheel", source],
         cwd=tmp_path, env=env, timeout=1200)
