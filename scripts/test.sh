@@ -20,6 +20,7 @@ phase .venv/bin/ruff check --quiet python tests bench packaging fuzz scripts
 phase .venv/bin/python packaging/release.py
 phase cargo build --release --bins --locked
 phase cargo test --locked
-phase .venv/bin/python -m pytest tests/python -q
+phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadscope -m "not serial"
+phase .venv/bin/python -m pytest tests/python -q -m serial
 phase bash scripts/fuzz.sh
 echo "test.sh: every test passed in $SECONDS s" >&2

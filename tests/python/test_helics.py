@@ -41,6 +41,9 @@ from aem_electrolyser.helics.records import read
 from aem_electrolyser.hub import HubFMU
 from aem_electrolyser.wind.farm import farm_power
 
+#: Every test here bounds how long processes may take to end: they run alone (scripts/test.sh).
+pytestmark = pytest.mark.serial
+
 #: The runner file ships with the package, beside the federates.
 RUNNER_FILE = Path(aem_electrolyser.helics.__file__).parent / "federation.json"
 

@@ -225,10 +225,21 @@ def stored(out):
 
 
 def wait_for(condition, what, timeout=120):
+    """Polls `condition` until it gives a true value, which it returns."""
     end = time.monotonic() + timeout
-    while not condition():
+    while not (value := condition()):
         assert time.monotonic() < end, f"timed out waiting for {what}"
         time.sleep(0.05)
+    return value
+
+
+def cmdline(pid):
+    """The command line of process `pid`, or "" if it has ended meanwhile."""
+    try:
+        with open(f"/proc/{pid}/cmdline", "rb") as f:
+            return f.read().decode(errors="replace")
+    except OSError:
+        return ""
 
 
 def children(pid):
@@ -236,16 +247,22 @@ def children(pid):
     out, todo = [], [pid]
     while todo:
         parent = todo.pop()
-        for task in os.listdir(f"/proc/{parent}/task"):
+        try:
+            tasks = os.listdir(f"/proc/{parent}/task")
+        except OSError:  # ended meanwhile
+            continue
+        for task in tasks:
             try:
-                kids = open(f"/proc/{parent}/task/{task}/children").read().split()
-            except FileNotFoundError:
+                with open(f"/proc/{parent}/task/{task}/children") as f:
+                    kids = f.read().split()
+            except OSError:
                 continue
             out += [int(k) for k in kids]
             todo += [int(k) for k in kids]
     return out
 
 
+@pytest.mark.serial
 def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
     path = write_study(tmp_path, SLOW_STUDY, fmu_path)
     out = tmp_path / "out"
@@ -269,17 +286,23 @@ def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
     assert third.returncode == 0 and "[finished" not in third.stderr and stored(out) == after
 
 
+@pytest.mark.serial
 def test_a_killed_worker_loses_nothing(tmp_path, fmu_path):
     path = write_study(tmp_path, SLOW_STUDY, fmu_path)
     out = tmp_path / "out"
     study = subprocess.Popen(AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     wait_for(lambda: len(stored(out)) >= 1, "a stored scenario")
-    runners = lambda: [p for p in children(study.pid)  # noqa: E731
-                       if "aem-run" in open(f"/proc/{p}/cmdline", "rb").read().decode(errors="replace")]
-    wait_for(lambda: runners(), "a running aem-run")
-    worker = next(p for p in children(study.pid) if runners()[0] in children(p) and
-                  "aem-run" not in open(f"/proc/{p}/cmdline", "rb").read().decode(errors="replace"))
+
+    def busy_worker():
+        """A worker process whose aem-run is running a scenario now, or None. Processes end
+        while they are looked at (a scenario finishes): such a one is simply not found."""
+        for worker in children(study.pid):
+            if "aem-run" not in cmdline(worker) and any("aem-run" in cmdline(c) for c in children(worker)):
+                return worker
+        return None
+
+    worker = wait_for(busy_worker, "a worker running aem-run")
     os.kill(worker, signal.SIGKILL)           # the worker process running a scenario, mid-scenario
     stdout, stderr = study.communicate(timeout=300)
     assert study.returncode == 0, stderr
