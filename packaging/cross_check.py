@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Write the packaged FMU into the layout of the FMI cross-check repository.
 
-    python packaging/cross_check.py [--out target/cross-check]
+    .venv/bin/python packaging/cross_check.py [--out target/cross-check]
 
 For every platform whose binary the FMU holds (linux64, win64):
 
@@ -24,7 +24,8 @@ are the exact integrals of P and F/3600.
 `python -m fmpy.cross_check --fmus_dir <out>/fmus --include linux64 --simulate --result_dir
 <out>/results` then imports the FMU with fmpy and compares against the reference, and
 `python -m fmpy.cross_check.validate_vendor_repo <out>` checks the whole tree.
-Standard library only (the FMU's start values are read from its model description).
+Standard library and aem_electrolyser.cli only (the FMU's start values are read from its model
+description).
 """
 import argparse
 import math

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Build the release library and zip it with the model description into an FMU.
 
-    python3 packaging/package.py [--out target/fmu/AemElectrolyser.fmu] [--no-build]
-    python3 packaging/package.py --parameters params.json [--module ID] --out my.fmu
+    .venv/bin/python packaging/package.py [--out target/fmu/AemElectrolyser.fmu] [--no-build]
+    .venv/bin/python packaging/package.py --parameters params.json [--module ID] --out my.fmu
 
 With --integer-enumerations, dispatch, belowMinimum and operatingState are declared as plain
 Integers (same value references, same codes, ranges from the enumerations' items) in the
@@ -10,7 +10,7 @@ shipped model description: for importers that ignore FMI enumerations (libcosim 
 do), so that their users can still set a hub's dispatch. The binary is the same; with
 --from FMU an FMU already built is repackaged that way, without building:
 
-    python3 packaging/package.py --integer-enumerations --from target/fmu/AemElectrolyser.fmu --out AemInteger.fmu
+    .venv/bin/python packaging/package.py --integer-enumerations --from target/fmu/AemElectrolyser.fmu --out AemInteger.fmu
 
 With --parameters (a file written by `aem-identify fit -o`), the FMU's parameter start values
 are the identified ones: the copy of modelDescription.xml that goes into the zip gets them
@@ -28,7 +28,8 @@ Both binaries are built on this Linux x86-64 machine (packaging/platforms.py say
 --platforms picks some of them. The time each build takes is printed on stderr; the output
 path is checked for writing before anything is built.
 The archive is deterministic: fixed timestamps and sorted entries, so the same sources give
-the same bytes. Standard library only.
+the same bytes. Standard library and aem_electrolyser.cli only (run it with .venv/bin/python, or
+with python/ on PYTHONPATH as the wheel's build hook does).
 """
 import argparse
 import json

@@ -10,9 +10,9 @@
 outputs (packaging/package.py builds the FMU's library with it). As a command it builds the
 identification tool and aem-study's native master for users of each platform:
 
-    python packaging/platforms.py aem-identify|aem-run [--platforms win64]
+    .venv/bin/python packaging/platforms.py aem-identify|aem-run [--platforms win64]
         -> target/dist/<platform>/aem-identify[.exe], aem-run[.exe]
-    python packaging/platforms.py all [--platforms win64]
+    .venv/bin/python packaging/platforms.py all [--platforms win64]
         -> the whole workspace in one build per platform (the FMU's library, which
            packaging/package.py --no-build then zips, and both commands into target/dist/)
 

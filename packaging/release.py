@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The release bundle in one command: every file a user downloads, in dist/.
 
-    python packaging/release.py [--out dist]
+    .venv/bin/python packaging/release.py [--out dist]
 
 Builds (each with its own tool, printing its time on stderr) and writes:
 
