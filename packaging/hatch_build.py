@@ -12,9 +12,10 @@ Two ways to build:
 - A release (packaging/release.py): AEM_WHEEL_PLATFORM=linux64 or win64 takes what the release
   built, target/fmu/AemElectrolyser.fmu (both binaries) and target/dist/<platform>/aem-identify,
   aem-run (portable builds), and tags the wheel manylinux2014_x86_64 or win_amd64.
-- From source (pip install of the sdist, or of the checkout without -e): builds the FMU's
-  linux64 binary and the commands with plain cargo for this machine (Linux x86-64, Rust and
-  libclang needed) and tags the wheel for this platform (linux_x86_64).
+- From source (pip install of the sdist, or of the checkout without -e; Linux x86-64, Rust and
+  libclang needed): builds the FMU's linux64 binary and the commands in one cargo build, with
+  cargo-zigbuild against glibc 2.17 when it is installed (a manylinux2014 wheel), else with
+  plain cargo for this machine (a linux_x86_64 wheel).
 
 An editable install (pip install -e .) takes nothing: the package then finds the build tree.
 """
@@ -85,13 +86,16 @@ def _build_from_source(root, target):
     out = target / "wheel-artefacts"
     out.mkdir(parents=True, exist_ok=True)
     fmu = out / f"{MODEL}.fmu"
+    # cargo-zigbuild with zig (pip install cargo-zigbuild ziglang) links against glibc 2.17: then
+    # the wheel is a manylinux2014 one; without it, plain cargo builds for this machine's glibc.
+    here = str(Path(sys.executable).parent)
+    portable = shutil.which("cargo-zigbuild", path=f"{here}{os.pathsep}{os.environ.get('PATH', '')}") is not None
+    native = [] if portable else ["--native"]
     env = dict(os.environ, PYTHONPATH=str(root / "python"), CARGO_TARGET_DIR=str(target))
-    subprocess.run([sys.executable, str(root / "packaging" / "package.py"), "--platforms", "linux64", "--native",
+    packaging = root / "packaging"
+    subprocess.run([sys.executable, str(packaging / "platforms.py"), "all", "--platforms", "linux64", *native,
+                    "--dest", str(out)], cwd=root, env=env, check=True)
+    subprocess.run([sys.executable, str(packaging / "package.py"), "--no-build", "--platforms", "linux64", *native,
                     "--out", str(fmu)], cwd=root, env=env, check=True)
-    subprocess.run(["cargo", "build", "--release", "--locked", *(a for t in TOOLS for a in ("--package", t))],
-                   cwd=root, env=env, check=True)
-    tools = []
-    for tool in TOOLS:
-        shutil.copy2(target / "release" / tool, out / tool)
-        tools.append(out / tool)
-    return fmu, tools, "py3-none-" + sysconfig.get_platform().replace("-", "_").replace(".", "_")
+    tag = RELEASE_TAGS["linux64"] if portable else "py3-none-" + sysconfig.get_platform().replace("-", "_").replace(".", "_")
+    return fmu, [out / tool for tool in TOOLS], tag

@@ -12,6 +12,9 @@ identification tool and aem-study's native master for users of each platform:
 
     .venv/bin/python packaging/platforms.py aem-identify|aem-run [--platforms win64]
         -> target/dist/<platform>/aem-identify[.exe], aem-run[.exe]
+    .venv/bin/python packaging/platforms.py test [-- CARGO TEST ARGUMENTS]
+        -> the workspace's Rust tests, built as the linux64 release is (cargo zigbuild test
+           --profile bench; see Cargo.toml's [profile.bench.package.*]), reusing its crates
     .venv/bin/python packaging/platforms.py all [--platforms win64]
         -> the whole workspace in one build per platform (the FMU's library, which
            packaging/package.py --no-build then zips, and both commands into target/dist/)
@@ -139,24 +142,43 @@ def build(platform, cargo_args, extra_env=None):
     return release_dir(platform), seconds
 
 
+def test(cargo_test_args):
+    """Runs the workspace's tests built for linux64 by cargo zigbuild with the bench profile: the
+    release's target folder and dependencies. Returns cargo's exit status."""
+    build_argv, env = command(LINUX64, ["--workspace", "--locked"])
+    assert build_argv[:3] == ["cargo", "zigbuild", "--release"], build_argv
+    argv = ["cargo", "zigbuild", "test", "--profile", "bench", *build_argv[3:], *cargo_test_args]
+    env["AEM_MODEL_DESCRIPTION"] = ""  # as the release's build: its build script's input unchanged
+    return subprocess.run(argv, cwd=ROOT, env=env).returncode
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description="Build a command of the workspace for each platform.")
-    parser.add_argument("tool", choices=["aem-identify", "aem-run", "all"],
-                        help="the command to build, or all: the workspace (the FMU's library and both commands)")
+    parser.add_argument("tool", choices=["aem-identify", "aem-run", "all", "test"],
+                        help="the command to build, all: the workspace (the FMU's library and both commands), "
+                             "or test: run the workspace's tests built for linux64")
+    parser.add_argument("cargo_test_args", nargs="*", help="with test: after --, passed to cargo test")
     parser.add_argument("--platforms", default=",".join(PLATFORMS), help="comma-separated FMI platforms")
+    parser.add_argument("--native", action="store_true",
+                        help="linux64 built with plain cargo against this machine's glibc (no zig; not for a release)")
+    parser.add_argument("--dest", type=Path, help="copy the commands into this folder [default: target/dist/<platform>/]")
     args = parser.parse_args(argv)
+    if args.tool == "test":
+        sys.exit(test(args.cargo_test_args))
     names = [p.strip() for p in args.platforms.split(",") if p.strip()]
     for name in names:
         if name not in PLATFORMS:
             parser.error(f"unknown platform {name}; choose from {', '.join(PLATFORMS)}")
     tools = ["aem-identify", "aem-run"] if args.tool == "all" else [args.tool]
-    outputs = {name: [writable(TARGET / "dist" / name / f"{tool}{PLATFORMS[name].exe_suffix}") for tool in tools]
-               for name in names}
+    if args.dest is not None and len(names) > 1:
+        parser.error("--dest takes the commands of one platform")
+    outputs = {name: [writable((args.dest or TARGET / "dist" / name) / f"{tool}{PLATFORMS[name].exe_suffix}")
+                      for tool in tools] for name in names}
     for name, paths in outputs.items():
         if args.tool == "all":  # the library from the repository's model description (package.py checks its GUID)
-            release, _ = build(PLATFORMS[name], ["--workspace", "--locked"], {"AEM_MODEL_DESCRIPTION": ""})
+            release, _ = build(platform(name, args.native), ["--workspace", "--locked"], {"AEM_MODEL_DESCRIPTION": ""})
         else:
-            release, _ = build(PLATFORMS[name], ["--bin", args.tool, "--package", args.tool, "--locked"])
+            release, _ = build(platform(name, args.native), ["--bin", args.tool, "--package", args.tool, "--locked"])
         for output in paths:
             shutil.copy2(release / output.name, output)
     for paths in outputs.values():

@@ -8,11 +8,11 @@ bash scripts/setup.sh
 .venv/bin/python packaging/package.py
 cargo build --release --locked -p aem-run
 echo "== Rust (cargo bench --bench model_step) on $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs), $(nproc) cores"
-cargo bench --locked --bench model_step -- --json target/bench/rust.json
+cargo bench --locked --profile release --bench model_step -- --json target/bench/rust.json
 echo "== fmpy and Python/SciPy"
 .venv/bin/python bench/fmpy_bench.py --rust target/bench/rust.json
 echo "== hub of 25 000 modules (cargo bench --bench hub; then the equal hub through fmpy)"
-cargo bench --locked --bench hub | tee target/bench/hub.txt
+cargo bench --locked --profile release --bench hub | tee target/bench/hub.txt
 .venv/bin/python bench/hub_fmpy.py
 echo "== the NREL electrolyzer package (PyPI) as peer, against the equal hub through fmpy"
 bash bench/nrel_bench.sh

@@ -210,10 +210,11 @@ def test_the_linux_wheel_is_tagged_manylinux2014_and_holds_the_linux_commands():
 
 @pytest.mark.serial
 def test_the_sdist_builds_a_working_wheel_from_its_own_files(tmp_path):
-    """Unpacked outside the checkout and built there (cargo and this venv's hatchling). The
-    checkout's cargo target folder is the build's CARGO_TARGET_DIR, as a cache: the registry's
-    crates compiled for this machine are reused, the workspace's own crates (another path) are
-    compiled from the sdist's files."""
+    """Unpacked outside the checkout and built there (cargo, cargo-zigbuild and this venv's
+    hatchling). The checkout's cargo target folder is the build's CARGO_TARGET_DIR, as a cache:
+    the registry's crates compiled by the release are reused, the workspace's own crates
+    (another path) are compiled from the sdist's files, and the build's outputs go to
+    target/wheel-artefacts/, not over the checkout's."""
     sdist = dist_file(f"aem_electrolyser-{VERSION}.tar.gz")
     with tarfile.open(sdist) as tar:
         tar.extractall(tmp_path, filter="data")
@@ -224,7 +225,8 @@ def test_the_sdist_builds_a_working_wheel_from_its_own_files(tmp_path):
     run([sys.executable, "-m", "build", "--wheel", "--no-isolation", "--outdir", tmp_path / "wheel", source],
         cwd=tmp_path, env=env, timeout=1200)
     (wheel,) = (tmp_path / "wheel").glob("*.whl")
-    assert wheel.name == f"aem_electrolyser-{VERSION}-py3-none-linux_x86_64.whl"
+    # cargo-zigbuild is in this venv: the build links against glibc 2.17, as the release's does.
+    assert wheel.name == f"aem_electrolyser-{VERSION}-{LINUX_TAG}.whl"
     bin_dir, venv_env = fresh_venv(tmp_path / "venv", str(wheel))
     code = """
 import aem_electrolyser, fmpy
