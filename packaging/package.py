@@ -60,8 +60,12 @@ def build_release(platforms, model_description=None, native=False):
         sys.exit(f"package.py: the binaries are built on Linux x86-64 (this is {host.system()} {host.machine()})")
     # Always set, so that a build from an edited copy is never reused for the repository's.
     env = {"AEM_MODEL_DESCRIPTION": str(model_description) if model_description is not None else ""}
+    # A release builds the whole workspace (packaging/platforms.py all): the same selection here
+    # keeps the features of shared dependencies, so only this crate is compiled again. The
+    # native build (the demo) needs the library alone.
+    selection = ["--lib", "--package", CRATE] if native else ["--workspace"]
     for name in platforms:
-        build(platform(name, native), ["--lib", "--package", CRATE, "--locked"], env)
+        build(platform(name, native), [*selection, "--locked"], env)
 
 
 class ParameterFileError(Exception):

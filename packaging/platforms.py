@@ -30,6 +30,7 @@ import shutil
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -147,7 +148,9 @@ def test(cargo_test_args):
     release's target folder and dependencies. Returns cargo's exit status."""
     build_argv, env = command(LINUX64, ["--workspace", "--locked"])
     assert build_argv[:3] == ["cargo", "zigbuild", "--release"], build_argv
-    argv = ["cargo", "zigbuild", "test", "--profile", "bench", *build_argv[3:], *cargo_test_args]
+    # `cargo zigbuild` knows no test; the binary itself does (cargo-zigbuild test).
+    zigbuild = shutil.which("cargo-zigbuild", path=env["PATH"])
+    argv = [zigbuild, "test", "--profile", "bench", *build_argv[3:], *cargo_test_args]
     env["AEM_MODEL_DESCRIPTION"] = ""  # as the release's build: its build script's input unchanged
     return subprocess.run(argv, cwd=ROOT, env=env).returncode
 
@@ -174,13 +177,19 @@ def main(argv=None):
         parser.error("--dest takes the commands of one platform")
     outputs = {name: [writable((args.dest or TARGET / "dist" / name) / f"{tool}{PLATFORMS[name].exe_suffix}")
                       for tool in tools] for name in names}
-    for name, paths in outputs.items():
+    def build_one(name):
         if args.tool == "all":  # the library from the repository's model description (package.py checks its GUID)
             release, _ = build(platform(name, args.native), ["--workspace", "--locked"], {"AEM_MODEL_DESCRIPTION": ""})
         else:
             release, _ = build(platform(name, args.native), ["--bin", args.tool, "--package", args.tool, "--locked"])
-        for output in paths:
+        for output in outputs[name]:
             shutil.copy2(release / output.name, output)
+
+    # The platforms' builds run at once: each has its own target folder, and together they keep
+    # both cores busy where one build's last crates compile alone.
+    with ThreadPoolExecutor(max_workers=len(names)) as pool:
+        for done in [pool.submit(build_one, name) for name in names]:
+            done.result()
     for paths in outputs.values():
         for output in paths:
             print(f"wrote {output}")
