@@ -351,7 +351,9 @@ def test_a_federate_that_never_comes_ends_the_federation(federation):
     for name in status:
         line = f.last_line(name)
         assert "the federation has not started after 5 s" in line, line
-        assert line.endswith(("joined: wind, hub", "joined: hub, wind")), line  # in the order they came
+        # in the order they came; when both watchdogs fire at once, a federate's line carries the
+        # other's error and then its own diagnosis, each naming who joined
+        assert "joined: wind, hub" in line or "joined: hub, wind" in line, line
 
 
 def test_the_wall_clock_limit_ends_the_federation(federation):
