@@ -19,7 +19,7 @@ bash bench/nrel_bench.sh
 echo "== aem-identify against its Python/SciPy peer"
 bash bench/identify_bench.sh
 echo "== prequalification of the 25 000-module hub: every product, plain and compensated, with bisection"
-.venv/bin/python -m reserves.prequalify --modules 25000 --dispatch equal --baseline 80 --compensation both \
+.venv/bin/aem-prequalify --modules 25000 --dispatch equal --baseline 80 --compensation both \
   --no-plots --out target/bench/prequalification | tail -1
 echo "== aem-study: a year at 1 s of the 60 MW hub per scenario, scenarios per hour serial and on a LocalCluster, the NREL peer"
 .venv/bin/python bench/study_bench.py

@@ -1,10 +1,10 @@
 """Command-line hygiene of the Python commands, as a new user meets it.
 
-A closed stdout (`python examples/step_schedule.py | head -3`) ends every command quietly with
+A closed stdout (`python -m aem_electrolyser.examples.step_schedule | head -3`) ends every command quietly with
 status 0 (no BrokenPipeError traceback, no "Exception ignored ...") after its result files are
 written; an output path that cannot be written ends it at once with status 1 and one line
 naming the path, before any long computation. packaging/platforms.py compiles for minutes and
-examples/validation_day.py rebuilds the FMU's library, so of these two only the help and the
+aem_electrolyser.examples.validation_day rebuilds the FMU's library, so of these two only the help and the
 argument and output-path errors are run here.
 """
 import importlib.util

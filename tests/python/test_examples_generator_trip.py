@@ -1,4 +1,4 @@
-"""examples/generator_trip.py with a short horizon (trip at 1 s, 10 s in all), checked against
+"""aem_electrolyser.examples.generator_trip with a short horizon (trip at 1 s, 10 s in all), checked against
 what must hold whatever the implementation: equilibrium before the trip, the size of the unit
 that trips and the governors' droop after it, the power balance of the network, the FCR-D up
 request as the closed form of the frequency the hub was given, the hub's power as the closed-form

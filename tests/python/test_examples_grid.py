@@ -1,4 +1,4 @@
-"""Smoke runs of examples 3 (examples/wind_hub.py) and 4 (examples/grid_cosim.py) through the
+"""Smoke runs of examples 3 (aem_electrolyser.examples.wind_hub) and 4 (aem_electrolyser.examples.grid_cosim) through the
 packaged hub FMU, with short horizons, and the numbers they must get right."""
 import csv
 

@@ -1,8 +1,8 @@
 """The issue-5 examples, run as a user would, with short horizons, checked against closed forms.
 
-examples/step_responses.py: final currents K*u, the 90 % and 98 % times of every step against
+aem_electrolyser.examples.step_responses: final currents K*u, the 90 % and 98 % times of every step against
 the two-exponential response of Table I (with the ramp limit for positive steps), no overshoot.
-examples/validation_day.py (a two-day campaign): identified parameters near the generator's
+aem_electrolyser.examples.validation_day (a two-day campaign): identified parameters near the generator's
 truth, an FMU that carries them, and a held-out current RMSE near the generator's noise that
 agrees with `aem-identify validate`.
 """

@@ -1,4 +1,4 @@
-"""The HELICS federation of frameworks/helics: a broker and the wind, hub and grid federates as
+"""The HELICS federation of aem_electrolyser.helics: a broker and the wind, hub and grid federates as
 separate processes over zmq on 127.0.0.1, each test with its own ports and broker key.
 
 * Ten simulated minutes (the 25 000-module hub, 1 s steps) run through `helics run` with the

@@ -1,5 +1,5 @@
-"""The hub FMU in mosaik 3 (frameworks/mosaik): aem_simulator.py against the FMU driven alone
-through fmpy (examples/hub_fmu.py), and an hour of cigre_scenario.py (25 000 modules, 1 s steps,
+"""The hub FMU in mosaik 3 (aem_electrolyser.mosaik): its simulator against the FMU driven alone
+through fmpy (aem_electrolyser.hub.driver), and an hour of cigre_scenario (25 000 modules, 1 s steps,
 the CIGRE HV grid in pandapower) against conservation of power and fresh load flows.
 
 Expected values come from the FMU run alone, the wind series recomputed, the FMU's model
@@ -44,7 +44,7 @@ def alone(fmu, reference, h=1.0, outputs=HUB_OUTPUTS, **parameters):
 
 @pytest.fixture(scope="module")
 def wind():
-    """The scenario's wind series [W], recomputed: examples/wind_farm.py rounded to 1 W."""
+    """The scenario's wind series [W], recomputed: aem_electrolyser.wind.farm rounded to 1 W."""
     return np.round(farm_power(DURATION + 1.0, 1.0, seed=SEED)[1])
 
 

@@ -1,5 +1,5 @@
-"""study/wind_year.py: a seeded year of 1 s wind-farm power (hourly Weibull/AR(1) weather,
-chunked Kaimal turbulence of examples/wind_farm.py). Expectations come from the model's
+"""aem_electrolyser.wind.year: a seeded year of 1 s wind-farm power (hourly Weibull/AR(1) weather,
+chunked Kaimal turbulence of aem_electrolyser.wind.farm). Expectations come from the model's
 definitions (the Weibull law, the AR(1) process, c(t), the Kaimal spectrum and the rotor
 filter), with tolerances of a few standard errors of the estimate."""
 import time

@@ -1,4 +1,4 @@
-"""examples/wind_farm.py: Kaimal turbulence, farm coherence, power curve, IEC gust."""
+"""aem_electrolyser.wind.farm: Kaimal turbulence, farm coherence, power curve, IEC gust."""
 
 import numpy as np
 import pytest

@@ -133,7 +133,7 @@ struct ValidateArgs {
     #[arg(long)]
     module: Option<String>,
     /// Write measured and simulated values of every running row (plot with
-    /// scripts/plot_validation.py).
+    /// python -m aem_electrolyser.plot_validation).
     #[arg(long, value_name = "out.csv")]
     csv: Option<PathBuf>,
     #[command(flatten)]
@@ -451,7 +451,7 @@ fn run_validate(args: ValidateArgs) -> Result<(), Error> {
     report += &format!("  RMSE hydrogen  {}\n", opt(v.h2_flow, "Nl/h"));
     if let Some(csv) = &csv {
         let path = csv.path.display();
-        report += &format!("wrote {path} (plot: python scripts/plot_validation.py {path} out.png)\n");
+        report += &format!("wrote {path} (plot: python -m aem_electrolyser.plot_validation {path} out.png)\n");
     }
     say(&report)
 }

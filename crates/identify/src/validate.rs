@@ -142,7 +142,7 @@ pub fn validate(params: &Parameters, log: &ModuleLog, options: &ValidateOptions)
 /// Column names of [`write_trace`].
 pub const TRACE_HEADER: &str = "time,setpoint,current_measured,current_model,voltage_measured,voltage_model,power_measured,power_model,h2_flow_measured,h2_flow_model,compared";
 
-/// Writes the trace as CSV (for `scripts/plot_validation.py`).
+/// Writes the trace as CSV (for `python -m aem_electrolyser.plot_validation`).
 pub fn write_trace(path: &Path, trace: &Trace) -> Result<()> {
     let io = |e: std::io::Error| Error::Io { path: path.into(), message: e.to_string() };
     let file = std::fs::File::create(path).map_err(io)?;

@@ -9,7 +9,7 @@ use serde_json::{Map, Value};
 
 const J_PER_MWH: f64 = 3.6e9;
 
-/// Version of these definitions; aem-study keys stored results with it (study/definition.py's
+/// Version of these definitions; aem-study keys stored results with it (aem_electrolyser.study.definition's
 /// KPI_VERSION must equal it, which the worker checks), so changed definitions rerun.
 pub const KPI_VERSION: u32 = 1;
 
@@ -53,7 +53,7 @@ pub struct Totals {
     pub running_hours: f64,
 }
 
-/// The KPI row, keys with units (the columns of study/kpis.py). `sums` is None for a
+/// The KPI row, keys with units (the columns of aem_electrolyser.study.kpis). `sums` is None for a
 /// setpoint-driven run (no power reference: the wind KPIs are null).
 pub fn row(totals: &Totals, sums: Option<&Sums>) -> Map<String, Value> {
     let modules = f64::from(totals.modules);

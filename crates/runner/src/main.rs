@@ -12,7 +12,7 @@
 //! F·W of rated power (nModules from one module's steady power at maxSetpoint).
 //!
 //! Prints one JSON object: `{"status": "done", "kpis": {...}, "messages": [...]}` with the
-//! KPIs of study/kpis.py, or `{"status": "failed", "message": "..."}` naming the failed call
+//! KPIs of aem_electrolyser.study.kpis, or `{"status": "failed", "message": "..."}` naming the failed call
 //! and the FMU's own messages (exit status 1).
 
 mod driver;

@@ -11,7 +11,7 @@ runs the load flow (Newton-Raphson to 1e-8 MVA, started from the previous soluti
 reused: only bus powers change) and publishes grid/voltage [pu], the bus's voltage magnitude,
 and grid/slackPower [W], the active power drawn from the external grid (the slack, Generator 9).
 
-Bus 1 is the host, as in frameworks/mosaik: Bus 5 cannot take the hub, 60 MW with no wind pull
+Bus 1 is the host, as in aem_electrolyser.mosaik: Bus 5 cannot take the hub, 60 MW with no wind pull
 it to 0.890 pu (the benchmark already has Bus 4 at 0.951 pu); at Bus 1 every combination of
 0/64 MW wind and 0/60 MW hub keeps all buses within 0.951-1.044 pu and lines below 79 %.
 Records <out>/grid_published.csv and <out>/grid_received.csv; log to stderr, report to stdout.

@@ -5,7 +5,7 @@ aem_electrolyser.wind.farm, for year-long hub studies: each Dask worker regenera
 SIMD level too: numpy's AVX-512 kernels of pow/exp/cos may differ in the last bit; AVX2 and
 the SSE baseline agree), using about a quarter of a GB beyond the interpreter for a year.
 
-    python study/wind_year.py [--days 365] [--seed 1] [--dt 1] [--out out/wind_year.png]
+    python -m aem_electrolyser.wind.year [--days 365] [--seed 1] [--dt 1] [--out out/wind_year.png]
 
 Model (every number is a default field of `WindClimate`; time t = 0 is 1 January 00:00):
 
