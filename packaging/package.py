@@ -42,7 +42,7 @@ import sys
 import zipfile
 from pathlib import Path
 
-from platforms import PLATFORMS, build, platform, release_dir
+from platforms import PLATFORMS, TARGET, build, platform, release_dir
 
 from aem_electrolyser.cli import quiet_on_closed_stdout, writable
 
@@ -201,7 +201,7 @@ def write_fmu(out: Path, files):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", type=Path, default=ROOT / "target" / "fmu" / f"{MODEL_IDENTIFIER}.fmu")
+    parser.add_argument("--out", type=Path, default=TARGET / "fmu" / f"{MODEL_IDENTIFIER}.fmu")
     parser.add_argument("--no-build", action="store_true", help="use the libraries already built")
     parser.add_argument("--platforms", default=",".join(PLATFORMS),
                         help=f"comma-separated FMI platforms to build and ship (default: {','.join(PLATFORMS)})")
