@@ -14,11 +14,13 @@
 
 use std::time::Instant;
 
+use aem_electrolyser::fmi2::exports::*;
+use aem_electrolyser::model_description::{BooleanVariable, IntegerVariable, RealVariable, GUID};
 use aem_model::dispatch::power_at_setpoint;
 use aem_model::spread::spread_parameters;
-use aem_electrolyser::fmi2::exports::*;
-use aem_model::{BelowMinimum, Demand, DispatchPolicy, Hub, HubConfig, OperationParameters, Parameters};
-use aem_electrolyser::model_description::{BooleanVariable, IntegerVariable, RealVariable, GUID};
+use aem_model::{
+    BelowMinimum, Demand, DispatchPolicy, Hub, HubConfig, OperationParameters, Parameters,
+};
 use fmi_sys::fmi2 as sys;
 
 const DAY: usize = 86_400;
@@ -47,9 +49,15 @@ fn wind_reference(n: usize, rated: f64, seed: u64) -> Vec<f64> {
 fn hardware() -> String {
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string()))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
         .unwrap_or_else(|| "unknown CPU".into());
-    let cores = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1);
+    let cores = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1);
     format!(
         "{cpu}, {cores} logical cores; equal and sequential run on one, individual parameters on {} (rayon; RAYON_NUM_THREADS)",
         rayon::current_num_threads()
@@ -86,7 +94,12 @@ fn run_c_abi(name: &str, dispatch: i32, spread: f64, reference: &[f64], target: 
         componentEnvironment: std::ptr::null_mut(),
     };
     let guid = std::ffi::CString::new(GUID).unwrap_or_default();
-    let ints = [IntegerVariable::NModules, IntegerVariable::Dispatch, IntegerVariable::BelowMinimum].map(|v| v.value_reference());
+    let ints = [
+        IntegerVariable::NModules,
+        IntegerVariable::Dispatch,
+        IntegerVariable::BelowMinimum,
+    ]
+    .map(|v| v.value_reference());
     let int_values = [MODULES as i32, dispatch, 1];
     let power_input = [BooleanVariable::PowerInput.value_reference()];
     let reference_vr = [RealVariable::PowerReference.value_reference()];
@@ -98,7 +111,15 @@ fn run_c_abi(name: &str, dispatch: i32, spread: f64, reference: &[f64], target: 
     // SAFETY: the calls follow the FMI 2.0 sequence with valid pointers; hubPower is read
     // every step, as a master does.
     let ok = unsafe {
-        let c = fmi2Instantiate(c"bench".as_ptr(), sys::fmi2Type_fmi2CoSimulation, guid.as_ptr(), std::ptr::null(), &callbacks, 0, 0);
+        let c = fmi2Instantiate(
+            c"bench".as_ptr(),
+            sys::fmi2Type_fmi2CoSimulation,
+            guid.as_ptr(),
+            std::ptr::null(),
+            &callbacks,
+            0,
+            0,
+        );
         let mut ok = !c.is_null()
             && fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0) == 0
             && fmi2SetInteger(c, ints.as_ptr(), ints.len(), int_values.as_ptr()) == 0
@@ -133,14 +154,26 @@ fn run_c_abi(name: &str, dispatch: i32, spread: f64, reference: &[f64], target: 
 
 fn main() {
     // `cargo bench --bench hub -- NAME` runs only the cases whose name contains NAME.
-    let filter = std::env::args().skip(1).find(|a| !a.starts_with('-')).unwrap_or_default();
+    let filter = std::env::args()
+        .skip(1)
+        .find(|a| !a.starts_with('-'))
+        .unwrap_or_default();
     let wanted = |name: &str| name.contains(filter.as_str());
     println!("hardware: {}", hardware());
     let base = Parameters::default();
     let rated = MODULES as f64 * power_at_setpoint(&base, base.max_setpoint);
     let reference = wind_reference(DAY, rated, 42);
-    let op = OperationParameters { below_minimum: BelowMinimum::Standby, ..Default::default() };
-    let config = |policy| HubConfig { n_modules: MODULES, policy, hysteresis: 5.0, operation: op, compensation: false };
+    let op = OperationParameters {
+        below_minimum: BelowMinimum::Standby,
+        ..Default::default()
+    };
+    let config = |policy| HubConfig {
+        n_modules: MODULES,
+        policy,
+        hysteresis: 5.0,
+        operation: op,
+        compensation: false,
+    };
     let first = Demand::Power(reference[0]);
     let equal = Hub::new(base, config(DispatchPolicy::Equal), first);
     let sequential = Hub::new(base, config(DispatchPolicy::Sequential), first);
@@ -170,6 +203,11 @@ fn main() {
                 run_c_abi("C ABI individual parameters", 1, 0.03, &reference, 15.0);
             }
         }
-        (e, s, i) => eprintln!("cannot build the hubs: {:?} {:?} {:?}", e.err(), s.err(), i.err()),
+        (e, s, i) => eprintln!(
+            "cannot build the hubs: {:?} {:?} {:?}",
+            e.err(),
+            s.err(),
+            i.err()
+        ),
     }
 }

@@ -10,8 +10,8 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use aem_electrolyser::fmi2::exports::*;
-use aem_model::{Module, Parameters};
 use aem_electrolyser::model_description::{RealVariable, GUID};
+use aem_model::{Module, Parameters};
 use fmi_sys::fmi2 as sys;
 
 const DAY: usize = 86_400;
@@ -75,7 +75,15 @@ fn c_abi_run(setpoints: &[f64]) -> f64 {
     let mut sum = 0.0;
     // SAFETY: the calls follow the FMI 2.0 sequence with valid pointers.
     unsafe {
-        let c = fmi2Instantiate(c"bench".as_ptr(), sys::fmi2Type_fmi2CoSimulation, guid.as_ptr(), std::ptr::null(), &callbacks, 0, 0);
+        let c = fmi2Instantiate(
+            c"bench".as_ptr(),
+            sys::fmi2Type_fmi2CoSimulation,
+            guid.as_ptr(),
+            std::ptr::null(),
+            &callbacks,
+            0,
+            0,
+        );
         assert!(!c.is_null());
         fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0);
         fmi2EnterInitializationMode(c);
@@ -98,7 +106,10 @@ fn main() {
     let wind = wind_like_setpoints(DAY, 42);
     let steady = vec![80.0; DAY];
     let fixed = vec![1.0; DAY];
-    let variable: Vec<f64> = wind_like_setpoints(DAY, 7).iter().map(|x| 0.5 + (x - 45.0) / 60.0).collect();
+    let variable: Vec<f64> = wind_like_setpoints(DAY, 7)
+        .iter()
+        .map(|x| 0.5 + (x - 45.0) / 60.0)
+        .collect();
 
     let steady_ns = ns_per_step(DAY, || model_run(&steady, &fixed));
     let wind_ns = ns_per_step(DAY, || model_run(&wind, &fixed));
@@ -106,10 +117,19 @@ fn main() {
     let c_abi_ns = ns_per_step(DAY, || c_abi_run(&wind));
     let day_s = wind_ns * DAY as f64 * 1e-9;
 
-    println!("pure model, steady setpoint, fixed 1 s step:    {steady_ns:8.1} ns/step  ({:.1e} steps/s)", 1e9 / steady_ns);
-    println!("pure model, wind-like setpoint, fixed 1 s step: {wind_ns:8.1} ns/step  ({:.1e} steps/s)", 1e9 / wind_ns);
+    println!(
+        "pure model, steady setpoint, fixed 1 s step:    {steady_ns:8.1} ns/step  ({:.1e} steps/s)",
+        1e9 / steady_ns
+    );
+    println!(
+        "pure model, wind-like setpoint, fixed 1 s step: {wind_ns:8.1} ns/step  ({:.1e} steps/s)",
+        1e9 / wind_ns
+    );
     println!("pure model, wind-like setpoint, variable step:  {variable_ns:8.1} ns/step  ({:.1e} steps/s)", 1e9 / variable_ns);
-    println!("pure model, one day at 1 s (wind-like):         {:8.4} s", day_s);
+    println!(
+        "pure model, one day at 1 s (wind-like):         {:8.4} s",
+        day_s
+    );
     println!("C ABI in process, setReal+doStep+getReal(4):    {c_abi_ns:8.1} ns/step");
     if let Some(path) = json_path {
         let json = format!(

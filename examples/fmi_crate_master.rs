@@ -23,7 +23,14 @@ use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common};
 use fmi::fmi2::Fmi2Res;
 
-const OUTPUTS: [&str; 6] = ["current", "voltage", "power", "h2Flow", "energy", "h2Produced"];
+const OUTPUTS: [&str; 6] = [
+    "current",
+    "voltage",
+    "power",
+    "h2Flow",
+    "energy",
+    "h2Produced",
+];
 
 type Result<T> = std::result::Result<T, Box<dyn Error>>;
 
@@ -38,8 +45,14 @@ struct Args {
 fn parse_args() -> Result<Args> {
     let argv: Vec<String> = std::env::args().skip(1).collect();
     let value = |name: &str| -> Result<String> {
-        let i = argv.iter().position(|a| a == name).ok_or(format!("missing {name}"))?;
-        Ok(argv.get(i + 1).ok_or(format!("{name} needs a value"))?.clone())
+        let i = argv
+            .iter()
+            .position(|a| a == name)
+            .ok_or(format!("missing {name}"))?;
+        Ok(argv
+            .get(i + 1)
+            .ok_or(format!("{name} needs a value"))?
+            .clone())
     };
     Ok(Args {
         fmu: value("--fmu")?.into(),
@@ -59,7 +72,9 @@ fn read_schedule(path: &PathBuf) -> Result<Vec<(f64, f64)>> {
     }
     let mut rows: Vec<(f64, f64)> = Vec::new();
     for line in lines.filter(|l| !l.trim().is_empty()) {
-        let (t, u) = line.split_once(',').ok_or("schedule rows are time,setpoint")?;
+        let (t, u) = line
+            .split_once(',')
+            .ok_or("schedule rows are time,setpoint")?;
         let row = (t.trim().parse::<f64>()?, u.trim().parse::<f64>()?);
         if rows.last().is_some_and(|last| !(row.0 > last.0)) {
             return Err("schedule times must increase".into());
@@ -82,7 +97,11 @@ fn setpoint_at(schedule: &[(f64, f64)], t: f64) -> f64 {
 }
 
 /// An fmi2 call's result: only OK passes, unless a warning is allowed as well.
-fn check(what: &str, result: std::result::Result<Fmi2Res, fmi::fmi2::Fmi2Error>, warning_ok: bool) -> Result<()> {
+fn check(
+    what: &str,
+    result: std::result::Result<Fmi2Res, fmi::fmi2::Fmi2Error>,
+    warning_ok: bool,
+) -> Result<()> {
     match result {
         Ok(Fmi2Res::OK) => Ok(()),
         Ok(Fmi2Res::Warning) if warning_ok => Ok(()),
@@ -110,39 +129,65 @@ fn main() -> Result<()> {
         Ok(var.ok_or(format!("no variable {name}"))?.value_reference)
     };
     let setpoint_vr = [vr("setpoint")?];
-    let output_vrs = OUTPUTS.iter().map(|n| vr(n)).collect::<Result<Vec<u32>>>()?;
+    let output_vrs = OUTPUTS
+        .iter()
+        .map(|n| vr(n))
+        .collect::<Result<Vec<u32>>>()?;
 
     let mut fmu = import.instantiate_cs("fmi_crate_master", false, false)?;
     if fmu.get_version() != "2.0" || fmu.get_types_platform() != "default" {
         return Err("fmi2GetVersion or fmi2GetTypesPlatform is wrong".into());
     }
-    check("setupExperiment", fmu.setup_experiment(None, start, Some(args.stop)), false)?;
-    check("setReal", fmu.set_real(&setpoint_vr, &[setpoint_at(&schedule, start)]), true)?;
-    check("enterInitializationMode", fmu.enter_initialization_mode(), false)?;
-    check("exitInitializationMode", fmu.exit_initialization_mode(), true)?;
+    check(
+        "setupExperiment",
+        fmu.setup_experiment(None, start, Some(args.stop)),
+        false,
+    )?;
+    check(
+        "setReal",
+        fmu.set_real(&setpoint_vr, &[setpoint_at(&schedule, start)]),
+        true,
+    )?;
+    check(
+        "enterInitializationMode",
+        fmu.enter_initialization_mode(),
+        false,
+    )?;
+    check(
+        "exitInitializationMode",
+        fmu.exit_initialization_mode(),
+        true,
+    )?;
 
     let mut csv = String::from("time,current,voltage,power,h2Flow,energy,h2Produced\n");
     let mut values = [0.0; OUTPUTS.len()];
-    let mut row = |fmu: &mut fmi::fmi2::instance::InstanceCS, t: f64, csv: &mut String| -> Result<()> {
-        check("getReal", fmu.get_real(&output_vrs, &mut values), false)?;
-        write!(csv, "{t}")?;
-        for v in values {
-            write!(csv, ",{v}")?;
-        }
-        csv.push('\n');
-        Ok(())
-    };
+    let mut row =
+        |fmu: &mut fmi::fmi2::instance::InstanceCS, t: f64, csv: &mut String| -> Result<()> {
+            check("getReal", fmu.get_real(&output_vrs, &mut values), false)?;
+            write!(csv, "{t}")?;
+            for v in values {
+                write!(csv, ",{v}")?;
+            }
+            csv.push('\n');
+            Ok(())
+        };
     row(&mut fmu, start, &mut csv)?;
     // Communication points are start + n*h, computed afresh each step (no running sum).
     let mut n = 0.0;
     while n < n_steps {
         let t = start + n * h;
-        check("setReal", fmu.set_real(&setpoint_vr, &[setpoint_at(&schedule, t)]), true)?;
+        check(
+            "setReal",
+            fmu.set_real(&setpoint_vr, &[setpoint_at(&schedule, t)]),
+            true,
+        )?;
         check("doStep", fmu.do_step(t, h, true), false)?;
         row(&mut fmu, start + (n + 1.0) * h, &mut csv)?;
         n += 1.0;
     }
-    let last = fmu.last_successful_time().map_err(|e| format!("fmi2GetRealStatus: {e:?}"))?;
+    let last = fmu
+        .last_successful_time()
+        .map_err(|e| format!("fmi2GetRealStatus: {e:?}"))?;
     if (last - args.stop).abs() > 1e-9 * args.stop.abs().max(1.0) {
         return Err(format!("fmi2LastSuccessfulTime is {last}, not the stop time").into());
     }

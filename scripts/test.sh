@@ -19,6 +19,7 @@ phase() {
 }
 phase bash scripts/setup.sh
 phase .venv/bin/ruff check --quiet python tests bench packaging fuzz scripts
+phase cargo fmt --check
 phase .venv/bin/python packaging/release.py
 phase .venv/bin/python packaging/platforms.py test
 phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadscope -m "not serial" --durations=15

@@ -36,7 +36,10 @@ static INIT: Once = Once::new();
 
 fn messages_of(instance: &str) -> Vec<String> {
     let m = MESSAGES.lock().unwrap_or_else(|e| e.into_inner());
-    m.iter().filter(|(name, _)| name == instance).map(|(_, msg)| msg.clone()).collect()
+    m.iter()
+        .filter(|(name, _)| name == instance)
+        .map(|(_, msg)| msg.clone())
+        .collect()
 }
 
 fn callbacks() -> sys::fmi2CallbackFunctions {
@@ -68,10 +71,23 @@ impl Fmu {
         let guid = CString::new(GUID).unwrap();
         // SAFETY: valid strings and callbacks that outlive the instance.
         let c = unsafe {
-            fmi2Instantiate(cname.as_ptr(), sys::fmi2Type_fmi2CoSimulation, guid.as_ptr(), null(), &*callbacks, 0, 0)
+            fmi2Instantiate(
+                cname.as_ptr(),
+                sys::fmi2Type_fmi2CoSimulation,
+                guid.as_ptr(),
+                null(),
+                &*callbacks,
+                0,
+                0,
+            )
         };
         assert!(!c.is_null(), "instantiate");
-        Fmu { c, name: name.to_string(), _callbacks: callbacks, time: 0.0 }
+        Fmu {
+            c,
+            name: name.to_string(),
+            _callbacks: callbacks,
+            time: 0.0,
+        }
     }
 
     fn initialised(name: &str, setpoint: f64) -> Fmu {
@@ -166,7 +182,9 @@ fn call(f: &mut Fmu, name: &str) -> sys::fmi2Status {
                 s
             }
             "fmi2SetDebugLogging" => fmi2SetDebugLogging(c, 0, 0, null()),
-            "fmi2GetRealStatus" => fmi2GetRealStatus(c, sys::fmi2StatusKind_fmi2LastSuccessfulTime, &mut real),
+            "fmi2GetRealStatus" => {
+                fmi2GetRealStatus(c, sys::fmi2StatusKind_fmi2LastSuccessfulTime, &mut real)
+            }
             "fmi2Reset" => fmi2Reset(c),
             other => panic!("no such call {other}"),
         }
@@ -183,26 +201,56 @@ fn every_call_in_every_state_follows_the_standards_table() {
         ("fmi2EnterInitializationMode", &[Instantiated]),
         ("fmi2ExitInitializationMode", &[InitializationMode]),
         ("fmi2Terminate", &[StepComplete]),
-        ("fmi2GetReal", &[InitializationMode, StepComplete, Terminated]),
-        ("fmi2SetReal", &[Instantiated, InitializationMode, StepComplete]),
+        (
+            "fmi2GetReal",
+            &[InitializationMode, StepComplete, Terminated],
+        ),
+        (
+            "fmi2SetReal",
+            &[Instantiated, InitializationMode, StepComplete],
+        ),
         ("fmi2DoStep", &[StepComplete]),
-        ("fmi2GetFMUstate", &[Instantiated, InitializationMode, StepComplete, Terminated]),
-        ("fmi2SetDebugLogging", &[Instantiated, InitializationMode, StepComplete, Terminated]),
+        (
+            "fmi2GetFMUstate",
+            &[Instantiated, InitializationMode, StepComplete, Terminated],
+        ),
+        (
+            "fmi2SetDebugLogging",
+            &[Instantiated, InitializationMode, StepComplete, Terminated],
+        ),
         ("fmi2GetRealStatus", &[StepComplete, Terminated]),
-        ("fmi2Reset", &[Instantiated, InitializationMode, StepComplete, Terminated]),
+        (
+            "fmi2Reset",
+            &[Instantiated, InitializationMode, StepComplete, Terminated],
+        ),
     ];
     for (i, (name, allowed)) in table.iter().enumerate() {
-        for (j, state) in [Instantiated, InitializationMode, StepComplete, Terminated].into_iter().enumerate() {
+        for (j, state) in [Instantiated, InitializationMode, StepComplete, Terminated]
+            .into_iter()
+            .enumerate()
+        {
             let instance = format!("table-{i}-{j}");
             let mut f = in_state(&instance, state);
             let status = call(&mut f, name);
-            let refused = f.messages().iter().any(|m| m.contains("is not allowed in state"));
+            let refused = f
+                .messages()
+                .iter()
+                .any(|m| m.contains("is not allowed in state"));
             if allowed.contains(&state) {
-                assert_eq!(status, OK, "{name} in {state:?} must succeed; log: {:?}", f.messages());
+                assert_eq!(
+                    status,
+                    OK,
+                    "{name} in {state:?} must succeed; log: {:?}",
+                    f.messages()
+                );
                 assert!(!refused);
             } else {
                 assert_eq!(status, ERROR, "{name} in {state:?} must be refused");
-                assert!(refused && f.messages().iter().any(|m| m.contains(name)), "{name} in {state:?}: {:?}", f.messages());
+                assert!(
+                    refused && f.messages().iter().any(|m| m.contains(name)),
+                    "{name} in {state:?}: {:?}",
+                    f.messages()
+                );
             }
         }
     }
@@ -219,17 +267,27 @@ fn null_pointers_are_refused_without_touching_the_instance() {
         assert_eq!(fmi2GetReal(f.c, vr.as_ptr(), 1, null_mut()), ERROR);
         assert_eq!(fmi2SetReal(f.c, null(), 1, &1.0), ERROR);
         assert_eq!(fmi2SetReal(f.c, vr.as_ptr(), 1, null()), ERROR);
-        assert_eq!(fmi2GetReal(f.c, null(), 0, null_mut()), OK, "an empty request may pass nulls");
+        assert_eq!(
+            fmi2GetReal(f.c, null(), 0, null_mut()),
+            OK,
+            "an empty request may pass nulls"
+        );
         assert_eq!(fmi2DoStep(null_mut(), 0.0, 1.0, 1), ERROR);
         assert_eq!(fmi2GetFMUstate(f.c, null_mut()), ERROR);
         assert_eq!(fmi2SetFMUstate(f.c, null_mut()), ERROR);
         assert_eq!(fmi2FreeFMUstate(f.c, null_mut()), ERROR);
-        assert_eq!(fmi2SerializedFMUstateSize(f.c, null_mut(), null_mut()), ERROR);
+        assert_eq!(
+            fmi2SerializedFMUstateSize(f.c, null_mut(), null_mut()),
+            ERROR
+        );
         assert_eq!(fmi2DeSerializeFMUstate(f.c, null(), 10, null_mut()), ERROR);
         assert_eq!(fmi2SetDebugLogging(f.c, 1, 1, null()), ERROR);
         let nulls: [sys::fmi2String; 1] = [null()];
         assert_eq!(fmi2SetDebugLogging(f.c, 1, 1, nulls.as_ptr()), ERROR);
-        assert_eq!(fmi2GetRealStatus(f.c, sys::fmi2StatusKind_fmi2LastSuccessfulTime, null_mut()), ERROR);
+        assert_eq!(
+            fmi2GetRealStatus(f.c, sys::fmi2StatusKind_fmi2LastSuccessfulTime, null_mut()),
+            ERROR
+        );
         fmi2FreeInstance(null_mut());
     }
     assert!(f.messages().iter().any(|m| m.contains("null pointer")));
@@ -238,7 +296,10 @@ fn null_pointers_are_refused_without_touching_the_instance() {
         twin.set(RealVariable::Setpoint, 95.0);
         assert_eq!(f.step(0.5), OK);
         assert_eq!(twin.step(0.5), OK);
-        assert_eq!(f.get(RealVariable::Current).1.to_bits(), twin.get(RealVariable::Current).1.to_bits());
+        assert_eq!(
+            f.get(RealVariable::Current).1.to_bits(),
+            twin.get(RealVariable::Current).1.to_bits()
+        );
     }
 }
 
@@ -247,13 +308,60 @@ fn instantiate_refuses_bad_arguments() {
     let cb = callbacks();
     let guid = CString::new(GUID).unwrap();
     unsafe {
-        assert!(fmi2Instantiate(c"x".as_ptr(), sys::fmi2Type_fmi2CoSimulation, guid.as_ptr(), null(), null(), 0, 0).is_null());
-        assert!(fmi2Instantiate(null(), sys::fmi2Type_fmi2CoSimulation, guid.as_ptr(), null(), &cb, 0, 0).is_null());
-        assert!(fmi2Instantiate(c"me".as_ptr(), sys::fmi2Type_fmi2ModelExchange, guid.as_ptr(), null(), &cb, 0, 0).is_null());
-        assert!(fmi2Instantiate(c"guid".as_ptr(), sys::fmi2Type_fmi2CoSimulation, c"{wrong}".as_ptr(), null(), &cb, 0, 0).is_null());
-        assert!(fmi2Instantiate(c"noguid".as_ptr(), sys::fmi2Type_fmi2CoSimulation, null(), null(), &cb, 0, 0).is_null());
+        assert!(fmi2Instantiate(
+            c"x".as_ptr(),
+            sys::fmi2Type_fmi2CoSimulation,
+            guid.as_ptr(),
+            null(),
+            null(),
+            0,
+            0
+        )
+        .is_null());
+        assert!(fmi2Instantiate(
+            null(),
+            sys::fmi2Type_fmi2CoSimulation,
+            guid.as_ptr(),
+            null(),
+            &cb,
+            0,
+            0
+        )
+        .is_null());
+        assert!(fmi2Instantiate(
+            c"me".as_ptr(),
+            sys::fmi2Type_fmi2ModelExchange,
+            guid.as_ptr(),
+            null(),
+            &cb,
+            0,
+            0
+        )
+        .is_null());
+        assert!(fmi2Instantiate(
+            c"guid".as_ptr(),
+            sys::fmi2Type_fmi2CoSimulation,
+            c"{wrong}".as_ptr(),
+            null(),
+            &cb,
+            0,
+            0
+        )
+        .is_null());
+        assert!(fmi2Instantiate(
+            c"noguid".as_ptr(),
+            sys::fmi2Type_fmi2CoSimulation,
+            null(),
+            null(),
+            &cb,
+            0,
+            0
+        )
+        .is_null());
     }
-    assert!(messages_of("me").iter().any(|m| m.contains("co-simulation only")));
+    assert!(messages_of("me")
+        .iter()
+        .any(|m| m.contains("co-simulation only")));
     assert!(messages_of("guid").iter().any(|m| m.contains("GUID")));
     assert!(messages_of("noguid").iter().any(|m| m.contains("GUID")));
 }
@@ -263,7 +371,10 @@ fn an_infinite_stop_time_bounds_nothing_and_survives_serialisation() {
     // Found by the fuzz test: stopTime = +inf was kept and made every saved state refuse
     // to deserialise (saved states hold only finite numbers).
     let mut f = Fmu::new("infinite-stop");
-    assert_eq!(unsafe { fmi2SetupExperiment(f.c, 0, 0.0, 40.0, 1, f64::INFINITY) }, OK);
+    assert_eq!(
+        unsafe { fmi2SetupExperiment(f.c, 0, 0.0, 40.0, 1, f64::INFINITY) },
+        OK
+    );
     assert_eq!(f.enter_init(), OK);
     assert_eq!(f.exit_init(), OK);
     f.time = 40.0;
@@ -274,9 +385,15 @@ fn an_infinite_stop_time_bounds_nothing_and_survives_serialisation() {
         let mut size = 0usize;
         assert_eq!(fmi2SerializedFMUstateSize(f.c, state, &mut size), OK);
         let mut bytes = vec![0u8; size];
-        assert_eq!(fmi2SerializeFMUstate(f.c, state, bytes.as_mut_ptr() as *mut sys::fmi2Byte, size), OK);
+        assert_eq!(
+            fmi2SerializeFMUstate(f.c, state, bytes.as_mut_ptr() as *mut sys::fmi2Byte, size),
+            OK
+        );
         let mut back: sys::fmi2FMUstate = null_mut();
-        assert_eq!(fmi2DeSerializeFMUstate(f.c, bytes.as_ptr() as *const sys::fmi2Byte, size, &mut back), OK);
+        assert_eq!(
+            fmi2DeSerializeFMUstate(f.c, bytes.as_ptr() as *const sys::fmi2Byte, size, &mut back),
+            OK
+        );
         assert_eq!(fmi2SetFMUstate(f.c, back), OK);
         assert_eq!(fmi2FreeFMUstate(f.c, &mut state), OK);
         assert_eq!(fmi2FreeFMUstate(f.c, &mut back), OK);
@@ -294,10 +411,18 @@ fn invalid_parameters_are_refused_at_initialisation_by_name() {
     ] {
         let name = format!("param-{}", var.name());
         let mut f = Fmu::new(&name);
-        assert_eq!(f.set(var, value), OK, "parameters are checked as a set at initialisation");
+        assert_eq!(
+            f.set(var, value),
+            OK,
+            "parameters are checked as a set at initialisation"
+        );
         assert_eq!(f.enter_init(), OK);
         assert_eq!(f.exit_init(), ERROR);
-        assert!(f.messages().iter().any(|m| m.contains(var.name())), "{:?}", f.messages());
+        assert!(
+            f.messages().iter().any(|m| m.contains(var.name())),
+            "{:?}",
+            f.messages()
+        );
         // Still in initialization mode: a corrected value lets initialisation finish.
         let good = var.start().unwrap();
         assert_eq!(f.set(var, good), OK);
@@ -318,12 +443,16 @@ fn instances_stepped_from_threads_match_instances_stepped_alone() {
             let sp = 55.0 + (x % 500) as f64 / 10.0;
             assert!(f.set(RealVariable::Setpoint, sp) <= sys::fmi2Status_fmi2Warning);
             assert_eq!(f.step(1.0), OK);
-            out.push(f.get(RealVariable::Energy).1.to_bits() ^ f.get(RealVariable::Current).1.to_bits());
+            out.push(
+                f.get(RealVariable::Energy).1.to_bits() ^ f.get(RealVariable::Current).1.to_bits(),
+            );
         }
         out
     }
     let alone: Vec<Vec<u64>> = (0..4).map(|i| run(format!("alone-{i}"), i + 1)).collect();
-    let threads: Vec<_> = (0..4u64).map(|i| std::thread::spawn(move || run(format!("thread-{i}"), i + 1))).collect();
+    let threads: Vec<_> = (0..4u64)
+        .map(|i| std::thread::spawn(move || run(format!("thread-{i}"), i + 1)))
+        .collect();
     for (i, t) in threads.into_iter().enumerate() {
         assert_eq!(t.join().unwrap(), alone[i], "thread {i}");
     }

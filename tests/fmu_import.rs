@@ -11,7 +11,9 @@ use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common};
 use fmi::traits::{FmiImport, FmiStatus};
 
-use aem_electrolyser::model_description::{BooleanVariable, IntegerVariable, RealVariable, StringVariable, GUID, MODEL_IDENTIFIER};
+use aem_electrolyser::model_description::{
+    BooleanVariable, IntegerVariable, RealVariable, StringVariable, GUID, MODEL_IDENTIFIER,
+};
 
 /// Table I of the paper.
 const K: f64 = 0.534;
@@ -28,7 +30,11 @@ const CURRENT_TOLERANCE: f64 = 1e-9;
 
 fn fmu_path() -> PathBuf {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/fmu/AemElectrolyser.fmu");
-    assert!(path.is_file(), "{} is missing: run python3 packaging/package.py first", path.display());
+    assert!(
+        path.is_file(),
+        "{} is missing: run python3 packaging/package.py first",
+        path.display()
+    );
     path
 }
 
@@ -75,27 +81,52 @@ fn model_description_seen_by_the_fmi_crate_matches_the_generated_code() {
     let generated: Vec<(&str, u32)> = RealVariable::ALL
         .iter()
         .map(|v| (v.name(), v.value_reference()))
-        .chain(IntegerVariable::ALL.iter().map(|v| (v.name(), v.value_reference())))
-        .chain(BooleanVariable::ALL.iter().map(|v| (v.name(), v.value_reference())))
-        .chain(StringVariable::ALL.iter().map(|v| (v.name(), v.value_reference())))
+        .chain(
+            IntegerVariable::ALL
+                .iter()
+                .map(|v| (v.name(), v.value_reference())),
+        )
+        .chain(
+            BooleanVariable::ALL
+                .iter()
+                .map(|v| (v.name(), v.value_reference())),
+        )
+        .chain(
+            StringVariable::ALL
+                .iter()
+                .map(|v| (v.name(), v.value_reference())),
+        )
         .collect();
     assert_eq!(variables.len(), generated.len());
     for sv in variables {
-        assert!(generated.contains(&(sv.name.as_str(), sv.value_reference)), "{} {}", sv.name, sv.value_reference);
+        assert!(
+            generated.contains(&(sv.name.as_str(), sv.value_reference)),
+            "{} {}",
+            sv.name,
+            sv.value_reference
+        );
     }
 }
 
 #[test]
 fn step_schedule_follows_the_closed_form_responses() {
     let import = import();
-    let mut fmu = import.instantiate_cs("schedule", false, true).expect("instantiate");
+    let mut fmu = import
+        .instantiate_cs("schedule", false, true)
+        .expect("instantiate");
     assert_eq!(fmu.get_version(), "2.0");
     fmu.setup_experiment(None, 0.0, None).expect("setup");
-    fmu.set_real(&[vr(RealVariable::Setpoint)], &[90.0]).expect("setpoint");
+    fmu.set_real(&[vr(RealVariable::Setpoint)], &[90.0])
+        .expect("setpoint");
     fmu.enter_initialization_mode().expect("enter init");
     fmu.exit_initialization_mode().expect("exit init");
 
-    let outputs = [RealVariable::Current, RealVariable::Voltage, RealVariable::Power, RealVariable::H2Flow];
+    let outputs = [
+        RealVariable::Current,
+        RealVariable::Voltage,
+        RealVariable::Power,
+        RealVariable::H2Flow,
+    ];
     let out_vrs: Vec<u32> = outputs.iter().map(|v| vr(*v)).collect();
     let mut values = [0.0; 4];
     let read = |fmu: &mut fmi::fmi2::instance::InstanceCS, values: &mut [f64; 4]| {
@@ -111,13 +142,17 @@ fn step_schedule_follows_the_closed_form_responses() {
 
     // Step down 90 → 65 %: two exponentials, no rate limit; 1 s steps for 600 s.
     let mut t = 0.0;
-    fmu.set_real(&[vr(RealVariable::Setpoint)], &[65.0]).expect("setpoint");
+    fmu.set_real(&[vr(RealVariable::Setpoint)], &[65.0])
+        .expect("setpoint");
     for n in 1..=600 {
         fmu.do_step(t, 1.0, true).expect("doStep");
         t += 1.0;
         let i = read(&mut fmu, &mut values);
         let want = unlimited(90.0, 65.0, n as f64);
-        assert!((i - want).abs() < CURRENT_TOLERANCE, "down step t={n}: {i} vs {want}");
+        assert!(
+            (i - want).abs() < CURRENT_TOLERANCE,
+            "down step t={n}: {i} vs {want}"
+        );
     }
     // Settle the slow pole before the next step (0.5 s steps: variable step sizes).
     for _ in 0..2 * 3000 {
@@ -132,15 +167,23 @@ fn step_schedule_follows_the_closed_form_responses() {
     // Starting exactly from steady state is the closed form's assumption; the residual of the
     // slow mode (about 1e-13 A after 3600 s) is far below the tolerance.
     let meet = ramp_meets_response(65.0, 100.0);
-    fmu.set_real(&[vr(RealVariable::Setpoint)], &[100.0]).expect("setpoint");
+    fmu.set_real(&[vr(RealVariable::Setpoint)], &[100.0])
+        .expect("setpoint");
     let start = settled;
     for n in 1..=900 {
         fmu.do_step(t, 1.0, true).expect("doStep");
         t += 1.0;
         let i = read(&mut fmu, &mut values);
         let s = n as f64;
-        let want = if s <= meet { start + RAMP * s } else { unlimited(65.0, 100.0, s) };
-        assert!((i - want).abs() < 1e-8, "up step t={s} (meet {meet:.3} s): {i} vs {want}");
+        let want = if s <= meet {
+            start + RAMP * s
+        } else {
+            unlimited(65.0, 100.0, s)
+        };
+        assert!(
+            (i - want).abs() < 1e-8,
+            "up step t={s} (meet {meet:.3} s): {i} vs {want}"
+        );
     }
     let last_time = fmu.last_successful_time().expect("last successful time");
     assert!((last_time - t).abs() < 1e-9);
@@ -150,12 +193,17 @@ fn step_schedule_follows_the_closed_form_responses() {
 #[test]
 fn fmu_state_round_trip_through_serialisation_replays_bit_identically() {
     let import = import();
-    let mut fmu = import.instantiate_cs("state", false, false).expect("instantiate");
+    let mut fmu = import
+        .instantiate_cs("state", false, false)
+        .expect("instantiate");
     fmu.setup_experiment(None, 0.0, None).expect("setup");
     fmu.enter_initialization_mode().expect("enter init");
     fmu.exit_initialization_mode().expect("exit init");
     let sp = [vr(RealVariable::Setpoint)];
-    let all: Vec<u32> = RealVariable::ALL.iter().map(|v| v.value_reference()).collect();
+    let all: Vec<u32> = RealVariable::ALL
+        .iter()
+        .map(|v| v.value_reference())
+        .collect();
     fmu.set_real(&sp, &[60.0]).expect("setpoint");
     let mut t = 0.0;
     for _ in 0..30 {
@@ -169,7 +217,8 @@ fn fmu_state_round_trip_through_serialisation_replays_bit_identically() {
         let mut trace = Vec::new();
         let mut t = t0;
         for k in 0..200 {
-            fmu.set_real(&sp, &[if k < 50 { 100.0 } else { 70.0 }]).expect("setpoint");
+            fmu.set_real(&sp, &[if k < 50 { 100.0 } else { 70.0 }])
+                .expect("setpoint");
             fmu.do_step(t, 0.7, true).expect("doStep");
             t += 0.7;
             let mut v = vec![0.0; all.len()];
@@ -184,15 +233,26 @@ fn fmu_state_round_trip_through_serialisation_replays_bit_identically() {
     let second = run(&mut fmu, t);
     assert_eq!(first, second, "a restored state must replay bit for bit");
 
-    let mut other = import.instantiate_cs("other", false, false).expect("instantiate");
+    let mut other = import
+        .instantiate_cs("other", false, false)
+        .expect("instantiate");
     other.setup_experiment(None, 0.0, None).expect("setup");
     other.enter_initialization_mode().expect("enter init");
     other.exit_initialization_mode().expect("exit init");
-    let moved = other.deserialize_fmu_state(&bytes).expect("deserialise in another instance");
+    let moved = other
+        .deserialize_fmu_state(&bytes)
+        .expect("deserialise in another instance");
     other.set_fmu_state(&moved).ok().expect("set state");
-    assert_eq!(run(&mut other, t), first, "a state moved to another instance must replay bit for bit");
+    assert_eq!(
+        run(&mut other, t),
+        first,
+        "a state moved to another instance must replay bit for bit"
+    );
 
     let mut corrupt = bytes.clone();
     corrupt[bytes.len() / 2] ^= 0x40;
-    assert!(other.deserialize_fmu_state(&corrupt).is_err(), "a corrupted state must be refused");
+    assert!(
+        other.deserialize_fmu_state(&corrupt).is_err(),
+        "a corrupted state must be refused"
+    );
 }

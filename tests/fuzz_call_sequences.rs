@@ -14,8 +14,10 @@ use std::ptr::{null, null_mut};
 
 use aem_electrolyser::fmi2::exports::*;
 use aem_electrolyser::fmi2::variables::{integer_parameter_mut, real_parameter_mut, start_values};
+use aem_electrolyser::model_description::{
+    Causality, IntegerVariable, RealVariable, StringVariable, GUID,
+};
 use aem_model::{Parameters, PlantSettings};
-use aem_electrolyser::model_description::{Causality, IntegerVariable, RealVariable, StringVariable, GUID};
 use fmi_sys::fmi2 as sys;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
@@ -69,36 +71,81 @@ fn ptr() -> impl Strategy<Value = Ptr> {
 
 #[derive(Clone, Debug)]
 enum Op {
-    Setup { start: f64, stop: Option<f64> },
+    Setup {
+        start: f64,
+        stop: Option<f64>,
+    },
     Enter,
     Exit,
     Terminate,
     Reset,
-    SetReal { vrs: Vec<u32>, values: Vec<f64>, vr_ptr: Ptr, value_ptr: Ptr },
-    GetReal { vrs: Vec<u32>, vr_ptr: Ptr, value_ptr: Ptr },
+    SetReal {
+        vrs: Vec<u32>,
+        values: Vec<f64>,
+        vr_ptr: Ptr,
+        value_ptr: Ptr,
+    },
+    GetReal {
+        vrs: Vec<u32>,
+        vr_ptr: Ptr,
+        value_ptr: Ptr,
+    },
     /// Step from the FMU's time plus `offset` by `h`.
-    DoStep { offset: f64, h: f64 },
+    DoStep {
+        offset: f64,
+        h: f64,
+    },
     GetState,
-    SetState { which: usize },
-    FreeState { which: usize },
-    Serialize { which: usize, short_by: usize },
-    Deserialize { source: usize, flip: Option<(usize, u8)>, truncate: Option<usize> },
-    DebugLogging { on: bool, categories: Vec<&'static str> },
+    SetState {
+        which: usize,
+    },
+    FreeState {
+        which: usize,
+    },
+    Serialize {
+        which: usize,
+        short_by: usize,
+    },
+    Deserialize {
+        source: usize,
+        flip: Option<(usize, u8)>,
+        truncate: Option<usize>,
+    },
+    DebugLogging {
+        on: bool,
+        categories: Vec<&'static str>,
+    },
     NullComponent,
     GarbageComponent,
     GarbageState,
-    IntegerCall { vr: u32 },
+    IntegerCall {
+        vr: u32,
+    },
     /// A hub setting: an Integer parameter, or powerInput.
-    SetSetting { vr: u32, value: i32 },
+    SetSetting {
+        vr: u32,
+        value: i32,
+    },
     /// moduleParameterFile: a null pointer, empty, or a file that does not exist.
-    SetFile { path: Option<&'static str> },
-    Unsupported { which: u8 },
-    InputDerivative { vr: u32, order: i32, value: f64 },
-    Status { kind: u32 },
+    SetFile {
+        path: Option<&'static str>,
+    },
+    Unsupported {
+        which: u8,
+    },
+    InputDerivative {
+        vr: u32,
+        order: i32,
+        value: f64,
+    },
+    Status {
+        kind: u32,
+    },
 }
 
 fn op() -> impl Strategy<Value = Op> {
-    let offsets = prop_oneof![6 => Just(0.0), 1 => Just(1.0), 1 => Just(-1e-3), 1 => Just(f64::NAN)];
+    let offsets =
+        prop_oneof![6 => Just(0.0), 1 => Just(1.0), 1 => Just(-1e-3), 1 => Just(f64::NAN)];
     let steps = prop_oneof![
         6 => 1e-3..120.0f64,
         1 => Just(0.0),
@@ -107,8 +154,15 @@ fn op() -> impl Strategy<Value = Op> {
         1 => Just(f64::INFINITY),
         1 => Just(1e300),
     ];
-    let categories =
-        prop::collection::vec(prop_oneof![Just("logEvents"), Just("logAll"), Just("logStatusError"), Just("nope")], 0..3);
+    let categories = prop::collection::vec(
+        prop_oneof![
+            Just("logEvents"),
+            Just("logAll"),
+            Just("logStatusError"),
+            Just("nope")
+        ],
+        0..3,
+    );
     prop_oneof![
         2 => (real_value(), prop::option::of(real_value())).prop_map(|(start, stop)| Op::Setup { start, stop }),
         3 => Just(Op::Enter),
@@ -159,21 +213,39 @@ struct View {
 impl View {
     fn fresh() -> View {
         let (params, settings, _) = start_values();
-        View { state: State::Instantiated, time: 0.0, stop: None, params, settings, file: String::new() }
+        View {
+            state: State::Instantiated,
+            time: 0.0,
+            stop: None,
+            params,
+            settings,
+            file: String::new(),
+        }
     }
 
     /// Whether fmi2ExitInitializationMode succeeds: valid parameters and settings, and a
     /// power reference needs a polarisation curve that draws power.
     fn initialisable(&self) -> bool {
         let p = &self.params;
-        let power_without_curve = self.settings.power_input && p.voltage_intercept == 0.0 && p.ohmic_resistance == 0.0;
-        p.validate().is_ok() && self.file.is_empty() && self.settings.config().is_ok_and(|c| c.is_single_module() || !power_without_curve)
+        let power_without_curve =
+            self.settings.power_input && p.voltage_intercept == 0.0 && p.ohmic_resistance == 0.0;
+        p.validate().is_ok()
+            && self.file.is_empty()
+            && self
+                .settings
+                .config()
+                .is_ok_and(|c| c.is_single_module() || !power_without_curve)
     }
 
     /// Whether a single module, which integrates a setpoint slope, is simulated (also while
     /// the settings are invalid: the FMU then cannot know better).
     fn single_module(&self) -> bool {
-        self.file.is_empty() && !self.settings.power_input && self.settings.config().map_or(true, |c| c.is_single_module())
+        self.file.is_empty()
+            && !self.settings.power_input
+            && self
+                .settings
+                .config()
+                .map_or(true, |c| c.is_single_module())
     }
 }
 
@@ -189,10 +261,24 @@ struct Harness {
 /// Parameters of physically sensible magnitude, for which every valid step must succeed.
 fn moderate(p: &Parameters, s: &PlantSettings) -> bool {
     let values = [
-        p.gain, p.tau_zero, p.tau_pole1, p.tau_pole2, p.ramp_up_limit, p.voltage_intercept,
-        p.ohmic_resistance, p.h2_coefficient, p.nominal_current, p.min_setpoint, p.max_setpoint,
-        s.hysteresis, s.cold_start_time, s.warm_start_time, s.start_power, s.standby_power,
-        s.standby_duration, s.stop_duration,
+        p.gain,
+        p.tau_zero,
+        p.tau_pole1,
+        p.tau_pole2,
+        p.ramp_up_limit,
+        p.voltage_intercept,
+        p.ohmic_resistance,
+        p.h2_coefficient,
+        p.nominal_current,
+        p.min_setpoint,
+        p.max_setpoint,
+        s.hysteresis,
+        s.cold_start_time,
+        s.warm_start_time,
+        s.start_power,
+        s.standby_power,
+        s.standby_duration,
+        s.stop_duration,
     ];
     values.iter().all(|v| v.abs() <= 1e6) && s.n_modules <= 1000
 }
@@ -213,10 +299,24 @@ impl Harness {
         let guid = CString::new(GUID).unwrap();
         // SAFETY: valid strings and callbacks that outlive the instance.
         let c = unsafe {
-            fmi2Instantiate(c"fuzz".as_ptr(), sys::fmi2Type_fmi2CoSimulation, guid.as_ptr(), null(), &*callbacks, 0, 0)
+            fmi2Instantiate(
+                c"fuzz".as_ptr(),
+                sys::fmi2Type_fmi2CoSimulation,
+                guid.as_ptr(),
+                null(),
+                &*callbacks,
+                0,
+                0,
+            )
         };
         assert!(!c.is_null());
-        Harness { c, _callbacks: callbacks, view: View::fresh(), states: Vec::new(), serialized: Vec::new() }
+        Harness {
+            c,
+            _callbacks: callbacks,
+            view: View::fresh(),
+            states: Vec::new(),
+            serialized: Vec::new(),
+        }
     }
 
     fn allowed(&self, allowed: &[State]) -> bool {
@@ -230,7 +330,14 @@ impl Harness {
         unsafe {
             match op {
                 Op::Setup { start, stop } => {
-                    let s = fmi2SetupExperiment(c, 0, 0.0, *start, stop.is_some() as i32, stop.unwrap_or(0.0));
+                    let s = fmi2SetupExperiment(
+                        c,
+                        0,
+                        0.0,
+                        *start,
+                        stop.is_some() as i32,
+                        stop.unwrap_or(0.0),
+                    );
                     let valid = self.allowed(&[Instantiated])
                         && start.is_finite()
                         && stop.is_none_or(|stop| stop >= *start);
@@ -250,7 +357,14 @@ impl Harness {
                 Op::Exit => {
                     let s = fmi2ExitInitializationMode(c);
                     let valid = self.allowed(&[Init]) && self.view.initialisable();
-                    prop_assert_eq!(is_ok(s), valid, "exit in {:?} with {:?} {:?}", self.view.state, self.view.params, self.view.settings);
+                    prop_assert_eq!(
+                        is_ok(s),
+                        valid,
+                        "exit in {:?} with {:?} {:?}",
+                        self.view.state,
+                        self.view.params,
+                        self.view.settings
+                    );
                     if valid {
                         self.view.state = Step;
                     }
@@ -266,12 +380,26 @@ impl Harness {
                     prop_assert!(is_ok(fmi2Reset(c)), "reset is allowed in every state");
                     self.view = View::fresh();
                 }
-                Op::SetReal { vrs, values, vr_ptr, value_ptr } => {
+                Op::SetReal {
+                    vrs,
+                    values,
+                    vr_ptr,
+                    value_ptr,
+                } => {
                     let n = vrs.len();
-                    let vp = if matches!(vr_ptr, Ptr::Null) { null() } else { vrs.as_ptr() };
-                    let xp = if matches!(value_ptr, Ptr::Null) { null() } else { values.as_ptr() };
+                    let vp = if matches!(vr_ptr, Ptr::Null) {
+                        null()
+                    } else {
+                        vrs.as_ptr()
+                    };
+                    let xp = if matches!(value_ptr, Ptr::Null) {
+                        null()
+                    } else {
+                        values.as_ptr()
+                    };
                     let s = fmi2SetReal(c, vp, n, xp);
-                    let pointers_ok = n == 0 || (matches!(vr_ptr, Ptr::Valid) && matches!(value_ptr, Ptr::Valid));
+                    let pointers_ok =
+                        n == 0 || (matches!(vr_ptr, Ptr::Valid) && matches!(value_ptr, Ptr::Valid));
                     let mut valid = self.allowed(&[Instantiated, Init, Step]) && pointers_ok;
                     for (vr, x) in vrs.iter().zip(values) {
                         let Some(var) = RealVariable::from_value_reference(*vr) else {
@@ -291,32 +419,68 @@ impl Harness {
                     if valid {
                         for (vr, x) in vrs.iter().zip(values) {
                             let var = RealVariable::from_value_reference(*vr).unwrap();
-                            if let Some(field) = real_parameter_mut(&mut self.view.params, &mut self.view.settings, var) {
+                            if let Some(field) = real_parameter_mut(
+                                &mut self.view.params,
+                                &mut self.view.settings,
+                                var,
+                            ) {
                                 *field = *x;
                             }
                         }
                     }
                 }
-                Op::GetReal { vrs, vr_ptr, value_ptr } => {
+                Op::GetReal {
+                    vrs,
+                    vr_ptr,
+                    value_ptr,
+                } => {
                     let n = vrs.len();
                     let mut out = vec![f64::NAN; n];
-                    let vp = if matches!(vr_ptr, Ptr::Null) { null() } else { vrs.as_ptr() };
-                    let xp = if matches!(value_ptr, Ptr::Null) { null_mut() } else { out.as_mut_ptr() };
+                    let vp = if matches!(vr_ptr, Ptr::Null) {
+                        null()
+                    } else {
+                        vrs.as_ptr()
+                    };
+                    let xp = if matches!(value_ptr, Ptr::Null) {
+                        null_mut()
+                    } else {
+                        out.as_mut_ptr()
+                    };
                     let s = fmi2GetReal(c, vp, n, xp);
-                    let pointers_ok = n == 0 || (matches!(vr_ptr, Ptr::Valid) && matches!(value_ptr, Ptr::Valid));
-                    let known = vrs.iter().all(|vr| RealVariable::from_value_reference(*vr).is_some());
+                    let pointers_ok =
+                        n == 0 || (matches!(vr_ptr, Ptr::Valid) && matches!(value_ptr, Ptr::Valid));
+                    let known = vrs
+                        .iter()
+                        .all(|vr| RealVariable::from_value_reference(*vr).is_some());
                     let allowed = self.allowed(&[Init, Step, Terminated]);
                     let outputs = vrs.iter().any(|vr| {
-                        RealVariable::from_value_reference(*vr).is_some_and(|v| v.causality() == Causality::Output)
+                        RealVariable::from_value_reference(*vr)
+                            .is_some_and(|v| v.causality() == Causality::Output)
                     });
                     // In initialization mode outputs follow from the parameters, if valid.
-                    let computable = self.view.state != Init || !outputs || self.view.initialisable();
+                    let computable =
+                        self.view.state != Init || !outputs || self.view.initialisable();
                     if !(allowed && pointers_ok && known && computable) {
-                        prop_assert!(!is_ok(s), "getReal {:?} in {:?} must fail", op, self.view.state);
+                        prop_assert!(
+                            !is_ok(s),
+                            "getReal {:?} in {:?} must fail",
+                            op,
+                            self.view.state
+                        );
                     } else {
-                        prop_assert!(is_ok(s), "getReal {:?} in {:?} must succeed", op, self.view.state);
+                        prop_assert!(
+                            is_ok(s),
+                            "getReal {:?} in {:?} must succeed",
+                            op,
+                            self.view.state
+                        );
                         for x in &out {
-                            prop_assert!(x.is_finite(), "getReal returned {} in {:?}", x, self.view.state);
+                            prop_assert!(
+                                x.is_finite(),
+                                "getReal returned {} in {:?}",
+                                x,
+                                self.view.state
+                            );
                         }
                     }
                 }
@@ -325,13 +489,25 @@ impl Harness {
                     let s = fmi2DoStep(c, point, *h, 1);
                     // The documented contract: the point may differ from the FMU's time by 1e-9
                     // relative (masters sum their steps differently); the FMU keeps its own time.
-                    let on_time = (point - self.view.time).abs() <= 1e-9 * self.view.time.abs().max(1.0);
+                    let on_time =
+                        (point - self.view.time).abs() <= 1e-9 * self.view.time.abs().max(1.0);
                     // Steps past a defined stopTime are refused (FMI 2.0, section 2.1.6).
-                    let before_stop =
-                        self.view.stop.is_none_or(|stop| self.view.time + h <= stop + 1e-9 * stop.abs().max(1.0));
-                    let valid = self.allowed(&[Step]) && on_time && h.is_finite() && *h > 0.0 && before_stop;
+                    let before_stop = self
+                        .view
+                        .stop
+                        .is_none_or(|stop| self.view.time + h <= stop + 1e-9 * stop.abs().max(1.0));
+                    let valid = self.allowed(&[Step])
+                        && on_time
+                        && h.is_finite()
+                        && *h > 0.0
+                        && before_stop;
                     if !valid {
-                        prop_assert!(!is_ok(s), "doStep {:?} in {:?} must fail", op, self.view.state);
+                        prop_assert!(
+                            !is_ok(s),
+                            "doStep {:?} in {:?} must fail",
+                            op,
+                            self.view.state
+                        );
                     } else if *h < 1e6 && moderate(&self.view.params, &self.view.settings) {
                         // (Huge steps or parameters may overflow the energy total: refusing
                         // those is correct; accepting them with non-finite outputs is not.)
@@ -342,14 +518,21 @@ impl Harness {
                         self.view.time = point + h;
                         // Time stays what the master expects.
                         let mut t = f64::NAN;
-                        prop_assert!(is_ok(fmi2GetRealStatus(c, sys::fmi2StatusKind_fmi2LastSuccessfulTime, &mut t)));
+                        prop_assert!(is_ok(fmi2GetRealStatus(
+                            c,
+                            sys::fmi2StatusKind_fmi2LastSuccessfulTime,
+                            &mut t
+                        )));
                         prop_assert_eq!(t.to_bits(), self.view.time.to_bits());
                     }
                 }
                 Op::GetState => {
                     let mut st: sys::fmi2FMUstate = null_mut();
                     let s = fmi2GetFMUstate(c, &mut st);
-                    prop_assert!(is_ok(s) && !st.is_null(), "getFMUstate is allowed in every state");
+                    prop_assert!(
+                        is_ok(s) && !st.is_null(),
+                        "getFMUstate is allowed in every state"
+                    );
                     self.states.push((st, self.view.clone()));
                 }
                 Op::SetState { which } => {
@@ -368,7 +551,10 @@ impl Harness {
                         prop_assert!(st.is_null());
                     } else {
                         let mut st: sys::fmi2FMUstate = null_mut();
-                        prop_assert!(is_ok(fmi2FreeFMUstate(c, &mut st)), "freeing a null state is a no-op");
+                        prop_assert!(
+                            is_ok(fmi2FreeFMUstate(c, &mut st)),
+                            "freeing a null state is a no-op"
+                        );
                     }
                 }
                 Op::Serialize { which, short_by } => {
@@ -376,14 +562,23 @@ impl Harness {
                         let mut size = 0usize;
                         prop_assert!(is_ok(fmi2SerializedFMUstateSize(c, *st, &mut size)));
                         let mut buf = vec![0u8; size];
-                        let s = fmi2SerializeFMUstate(c, *st, buf.as_mut_ptr() as *mut sys::fmi2Byte, size - short_by);
+                        let s = fmi2SerializeFMUstate(
+                            c,
+                            *st,
+                            buf.as_mut_ptr() as *mut sys::fmi2Byte,
+                            size - short_by,
+                        );
                         prop_assert_eq!(is_ok(s), *short_by == 0);
                         if is_ok(s) {
                             self.serialized.push((buf, view.clone()));
                         }
                     }
                 }
-                Op::Deserialize { source, flip, truncate } => {
+                Op::Deserialize {
+                    source,
+                    flip,
+                    truncate,
+                } => {
                     if let Some((bytes, view)) = self.serialized.get(*source).cloned() {
                         let mut b = bytes.clone();
                         if let Some((i, x)) = flip {
@@ -394,7 +589,12 @@ impl Harness {
                             b.truncate(*n);
                         }
                         let mut st: sys::fmi2FMUstate = null_mut();
-                        let s = fmi2DeSerializeFMUstate(c, b.as_ptr() as *const sys::fmi2Byte, b.len(), &mut st);
+                        let s = fmi2DeSerializeFMUstate(
+                            c,
+                            b.as_ptr() as *const sys::fmi2Byte,
+                            b.len(),
+                            &mut st,
+                        );
                         prop_assert_eq!(is_ok(s), b == bytes, "only intact bytes may deserialise");
                         if is_ok(s) {
                             self.states.push((st, view));
@@ -402,7 +602,10 @@ impl Harness {
                     }
                 }
                 Op::DebugLogging { on, categories } => {
-                    let names: Vec<CString> = categories.iter().map(|n| CString::new(*n).unwrap()).collect();
+                    let names: Vec<CString> = categories
+                        .iter()
+                        .map(|n| CString::new(*n).unwrap())
+                        .collect();
                     let ptrs: Vec<sys::fmi2String> = names.iter().map(|n| n.as_ptr()).collect();
                     let s = fmi2SetDebugLogging(c, *on as i32, ptrs.len(), ptrs.as_ptr());
                     prop_assert_eq!(is_ok(s), !categories.contains(&"nope"));
@@ -421,7 +624,10 @@ impl Harness {
                 }
                 Op::GarbageState => {
                     let mut garbage = [0xa5a5_a5a5_a5a5_a5a5u64; 512];
-                    prop_assert!(!is_ok(fmi2SetFMUstate(c, garbage.as_mut_ptr() as sys::fmi2FMUstate)));
+                    prop_assert!(!is_ok(fmi2SetFMUstate(
+                        c,
+                        garbage.as_mut_ptr() as sys::fmi2FMUstate
+                    )));
                     let mut p = garbage.as_mut_ptr() as sys::fmi2FMUstate;
                     prop_assert!(!is_ok(fmi2FreeFMUstate(c, &mut p)));
                 }
@@ -433,22 +639,32 @@ impl Harness {
                 }
                 Op::SetSetting { vr, value } => {
                     let vrs = [*vr];
-                    let s = if *vr == 300 { fmi2SetBoolean(c, vrs.as_ptr(), 1, value) } else { fmi2SetInteger(c, vrs.as_ptr(), 1, value) };
+                    let s = if *vr == 300 {
+                        fmi2SetBoolean(c, vrs.as_ptr(), 1, value)
+                    } else {
+                        fmi2SetInteger(c, vrs.as_ptr(), 1, value)
+                    };
                     let parameter = *vr == 300
-                        || IntegerVariable::from_value_reference(*vr).is_some_and(|v| v.causality() == Causality::Parameter);
+                        || IntegerVariable::from_value_reference(*vr)
+                            .is_some_and(|v| v.causality() == Causality::Parameter);
                     let valid = self.allowed(&[Instantiated, Init]) && parameter;
                     prop_assert_eq!(is_ok(s), valid, "{:?} in {:?}", op, self.view.state);
                     if valid {
                         if *vr == 300 {
                             self.view.settings.power_input = *value != 0;
-                        } else if let Some(field) = IntegerVariable::from_value_reference(*vr).and_then(|v| integer_parameter_mut(&mut self.view.settings, v)) {
+                        } else if let Some(field) = IntegerVariable::from_value_reference(*vr)
+                            .and_then(|v| integer_parameter_mut(&mut self.view.settings, v))
+                        {
                             *field = *value;
                         }
                     }
                     // Every Integer reads back (outputs once computable).
                     let mut back = 0;
                     let s = fmi2GetInteger(c, vrs.as_ptr(), 1, &mut back);
-                    if *vr != 300 && self.allowed(&[Init, Step, Terminated]) && (self.view.state != Init || self.view.initialisable()) {
+                    if *vr != 300
+                        && self.allowed(&[Init, Step, Terminated])
+                        && (self.view.state != Init || self.view.initialisable())
+                    {
                         prop_assert!(is_ok(s), "getInteger {} in {:?}", vr, self.view.state);
                     }
                 }
@@ -468,8 +684,18 @@ impl Harness {
                     let order = [1i32];
                     let mut x = 0.0;
                     let s = match which {
-                        1 => fmi2GetRealOutputDerivatives(c, vrs.as_ptr(), 1, order.as_ptr(), &mut x),
-                        2 => fmi2GetDirectionalDerivative(c, vrs.as_ptr(), 1, vrs.as_ptr(), 1, &1.0, &mut x),
+                        1 => {
+                            fmi2GetRealOutputDerivatives(c, vrs.as_ptr(), 1, order.as_ptr(), &mut x)
+                        }
+                        2 => fmi2GetDirectionalDerivative(
+                            c,
+                            vrs.as_ptr(),
+                            1,
+                            vrs.as_ptr(),
+                            1,
+                            &1.0,
+                            &mut x,
+                        ),
                         _ => fmi2CancelStep(c),
                     };
                     prop_assert!(!is_ok(s));
@@ -481,14 +707,18 @@ impl Harness {
                     // Orders above 1 are accepted (with a warning) and ignored; 0 is not an order.
                     // A hub holds its inputs over a step: it refuses a non-zero first derivative
                     // of the input that drives it.
-                    let input = RealVariable::from_value_reference(*vr).filter(|v| v.causality() == Causality::Input);
+                    let input = RealVariable::from_value_reference(*vr)
+                        .filter(|v| v.causality() == Causality::Input);
                     // The frequency drives the reserves, if any are offered, and is always held.
                     let frequency = input == Some(RealVariable::Frequency);
                     let drives = input.is_some_and(|v| match v {
                         RealVariable::Frequency => self.view.settings.reserve.offered(),
                         _ => (v == RealVariable::PowerReference) == self.view.settings.power_input,
                     });
-                    let hub_refuses = *order == 1 && *value != 0.0 && drives && (frequency || !self.view.single_module());
+                    let hub_refuses = *order == 1
+                        && *value != 0.0
+                        && drives
+                        && (frequency || !self.view.single_module());
                     let valid = self.allowed(&[Instantiated, Init, Step])
                         && input.is_some()
                         && *order >= 1
@@ -502,14 +732,14 @@ impl Harness {
                     let s = fmi2GetStatus(c, *kind, &mut s_out);
                     prop_assert!(!is_ok(s), "no status kind is available from fmi2GetStatus");
                     let s = fmi2GetBooleanStatus(c, *kind, &mut b);
-                    let valid = self.allowed(&[Step, Terminated]) && *kind == sys::fmi2StatusKind_fmi2Terminated;
+                    let valid = self.allowed(&[Step, Terminated])
+                        && *kind == sys::fmi2StatusKind_fmi2Terminated;
                     prop_assert_eq!(is_ok(s), valid);
                 }
             }
         }
         Ok(())
     }
-
 }
 
 impl Drop for Harness {
@@ -528,11 +758,16 @@ impl Drop for Harness {
 
 #[test]
 fn random_call_sequences_never_crash_and_never_accept_invalid_requests() {
-    let cases: u32 = std::env::var("FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(100_000);
+    let cases: u32 = std::env::var("FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(100_000);
     // A fixed seed by default, so that CI is reproducible; FUZZ_SEED=<u64> picks another and
     // FUZZ_SEED=random a fresh one (printed, to replay a failure).
     let seed: u64 = match std::env::var("FUZZ_SEED").ok().as_deref() {
-        Some("random") => std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(1, |d| d.as_nanos() as u64),
+        Some("random") => std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(1, |d| d.as_nanos() as u64),
         Some(text) => text.parse().expect("FUZZ_SEED: a u64 or `random`"),
         None => 0x00AE_E1EC_7201_15E2,
     };
@@ -540,7 +775,14 @@ fn random_call_sequences_never_crash_and_never_accept_invalid_requests() {
     let mut key = [0u8; 32];
     key[..8].copy_from_slice(&seed.to_le_bytes());
     let rng = TestRng::from_seed(RngAlgorithm::ChaCha, &key);
-    let mut runner = TestRunner::new_with_rng(Config { cases, failure_persistence: None, ..Config::default() }, rng);
+    let mut runner = TestRunner::new_with_rng(
+        Config {
+            cases,
+            failure_persistence: None,
+            ..Config::default()
+        },
+        rng,
+    );
     let started = std::time::Instant::now();
     let result = runner.run(&prop::collection::vec(op(), 1..40), |ops| {
         let mut h = Harness::new();
@@ -552,5 +794,8 @@ fn random_call_sequences_never_crash_and_never_accept_invalid_requests() {
     if let Err(e) = result {
         panic!("{e}");
     }
-    eprintln!("fuzz: {cases} random call sequences in {:.1} s", started.elapsed().as_secs_f64());
+    eprintln!(
+        "fuzz: {cases} random call sequences in {:.1} s",
+        started.elapsed().as_secs_f64()
+    );
 }

@@ -25,7 +25,10 @@ impl log::Log for Capture {
         true
     }
     fn log(&self, record: &log::Record) {
-        MESSAGES.lock().unwrap_or_else(|e| e.into_inner()).push(record.args().to_string());
+        MESSAGES
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .push(record.args().to_string());
     }
     fn flush(&self) {}
 }
@@ -65,7 +68,15 @@ impl Fmu {
         let callbacks = Box::new(callbacks());
         let guid = CString::new(GUID).unwrap();
         unsafe {
-            let c = fmi2Instantiate(c"report".as_ptr(), sys::fmi2Type_fmi2CoSimulation, guid.as_ptr(), null(), &*callbacks, 0, 0);
+            let c = fmi2Instantiate(
+                c"report".as_ptr(),
+                sys::fmi2Type_fmi2CoSimulation,
+                guid.as_ptr(),
+                null(),
+                &*callbacks,
+                0,
+                0,
+            );
             assert!(!c.is_null());
             if !matches!(stage, Stage::Instantiated) {
                 fmi2EnterInitializationMode(c);
@@ -77,7 +88,10 @@ impl Fmu {
             if matches!(stage, Stage::Terminated) {
                 fmi2Terminate(c);
             }
-            Fmu { c, _callbacks: callbacks }
+            Fmu {
+                c,
+                _callbacks: callbacks,
+            }
         }
     }
 
@@ -98,7 +112,17 @@ impl Drop for Fmu {
 }
 
 fn status_name(s: sys::fmi2Status) -> &'static str {
-    ["fmi2OK", "fmi2Warning", "fmi2Discard", "fmi2Error", "fmi2Fatal", "fmi2Pending"].get(s as usize).copied().unwrap_or("?")
+    [
+        "fmi2OK",
+        "fmi2Warning",
+        "fmi2Discard",
+        "fmi2Error",
+        "fmi2Fatal",
+        "fmi2Pending",
+    ]
+    .get(s as usize)
+    .copied()
+    .unwrap_or("?")
 }
 
 fn serialized_state() -> Vec<u8> {
@@ -118,7 +142,12 @@ fn serialized_state() -> Vec<u8> {
 fn deserialize(f: &Fmu, bytes: &[u8]) -> sys::fmi2Status {
     let mut st: sys::fmi2FMUstate = null_mut();
     unsafe {
-        let s = fmi2DeSerializeFMUstate(f.c, bytes.as_ptr() as *const sys::fmi2Byte, bytes.len(), &mut st);
+        let s = fmi2DeSerializeFMUstate(
+            f.c,
+            bytes.as_ptr() as *const sys::fmi2Byte,
+            bytes.len(),
+            &mut st,
+        );
         if !st.is_null() {
             fmi2FreeFMUstate(f.c, &mut st);
         }
@@ -135,112 +164,519 @@ fn cases() -> Vec<(&'static str, Stage, Box<dyn Fn(&Fmu) -> sys::fmi2Status>)> {
     let s2 = state.clone();
     let s3 = state.clone();
     vec![
-        ("setpoint = NaN", Stepping, Box::new(|f| f.set(Setpoint, f64::NAN))),
-        ("setpoint = +inf", Stepping, Box::new(|f| f.set(Setpoint, f64::INFINITY))),
-        ("setpoint = -inf", Stepping, Box::new(|f| f.set(Setpoint, f64::NEG_INFINITY))),
-        ("setpoint outside [60, 100] % (clamped)", Stepping, Box::new(|f| f.set(Setpoint, 30.0))),
-        ("parameter = NaN", Initialization, Box::new(|f| f.set(Gain, f64::NAN))),
-        ("unknown value reference (fmi2SetReal)", Stepping, Box::new(|f| unsafe { fmi2SetReal(f.c, [19u32].as_ptr(), 1, &1.0) })),
-        ("unknown value reference (fmi2GetReal)", Stepping, Box::new(|f| unsafe { let mut x = 0.0; fmi2GetReal(f.c, [u32::MAX].as_ptr(), 1, &mut x) })),
-        ("setting an output", Stepping, Box::new(|f| f.set(Current, 1.0))),
-        ("setting a fixed parameter after initialisation", Stepping, Box::new(|f| f.set(Gain, 0.6))),
-        ("fmi2GetReal before initialisation mode", Instantiated, Box::new(|f| unsafe { let mut x = 0.0; fmi2GetReal(f.c, [1u32].as_ptr(), 1, &mut x) })),
-        ("fmi2DoStep before initialisation", Instantiated, Box::new(|f| unsafe { fmi2DoStep(f.c, 0.0, 1.0, 1) })),
-        ("fmi2DoStep after fmi2Terminate", Terminated, Box::new(|f| unsafe { fmi2DoStep(f.c, 1.0, 1.0, 1) })),
-        ("fmi2ExitInitializationMode twice", Stepping, Box::new(|f| unsafe { fmi2ExitInitializationMode(f.c) })),
-        ("step size -1 s", Stepping, Box::new(|f| unsafe { fmi2DoStep(f.c, 1.0, -1.0, 1) })),
-        ("step size 0 s", Stepping, Box::new(|f| unsafe { fmi2DoStep(f.c, 1.0, 0.0, 1) })),
-        ("step size NaN", Stepping, Box::new(|f| unsafe { fmi2DoStep(f.c, 1.0, f64::NAN, 1) })),
-        ("step size +inf", Stepping, Box::new(|f| unsafe { fmi2DoStep(f.c, 1.0, f64::INFINITY, 1) })),
-        ("step size 1e306 s (the energy total would overflow)", Stepping, Box::new(|f| unsafe { fmi2DoStep(f.c, 1.0, 1e306, 1) })),
-        ("step past stopTime of fmi2SetupExperiment", Instantiated, Box::new(|f| unsafe {
-            fmi2SetupExperiment(f.c, 0, 0.0, 0.0, 1, 10.0);
-            fmi2EnterInitializationMode(f.c);
-            fmi2ExitInitializationMode(f.c);
-            fmi2DoStep(f.c, 0.0, 20.0, 1)
-        })),
-        ("communication point off by 1 s", Stepping, Box::new(|f| unsafe { fmi2DoStep(f.c, 2.0, 1.0, 1) })),
-        ("tauPole1 = -1 s at initialisation", Initialization, Box::new(|f| { f.set(TauPole1, -1.0); unsafe { fmi2ExitInitializationMode(f.c) } })),
-        ("minSetpoint > maxSetpoint at initialisation", Initialization, Box::new(|f| { f.set(MinSetpoint, 90.0); f.set(MaxSetpoint, 80.0); unsafe { fmi2ExitInitializationMode(f.c) } })),
-        ("tauPole1 = tauPole2 at initialisation", Initialization, Box::new(|f| { f.set(TauPole2, 1.995); unsafe { fmi2ExitInitializationMode(f.c) } })),
-        ("gain = 1e200 A/% at initialisation (overflow)", Initialization, Box::new(|f| { f.set(Gain, 1e200); unsafe { fmi2ExitInitializationMode(f.c) } })),
-        ("null value-reference array", Stepping, Box::new(|f| unsafe { let mut x = 0.0; fmi2GetReal(f.c, null(), 1, &mut x) })),
-        ("null value array", Stepping, Box::new(|f| unsafe { fmi2GetReal(f.c, [1u32].as_ptr(), 1, null_mut()) })),
-        ("null component", Stepping, Box::new(|_| unsafe { fmi2DoStep(null_mut(), 0.0, 1.0, 1) })),
-        ("component pointer not made by this FMU", Stepping, Box::new(|_| unsafe { let mut g = [7u64; 512]; fmi2DoStep(g.as_mut_ptr() as sys::fmi2Component, 0.0, 1.0, 1) })),
-        ("unknown log category", Stepping, Box::new(|f| unsafe { let n = [c"nope".as_ptr()]; fmi2SetDebugLogging(f.c, 1, 1, n.as_ptr()) })),
-        ("null log category", Stepping, Box::new(|f| unsafe { let n = [null()]; fmi2SetDebugLogging(f.c, 1, 1, n.as_ptr()) })),
-        ("fmi2SetFMUstate(NULL)", Stepping, Box::new(|f| unsafe { fmi2SetFMUstate(f.c, null_mut()) })),
-        ("FMU state pointer not made by this FMU", Stepping, Box::new(|f| unsafe { let mut g = [9u64; 512]; fmi2SetFMUstate(f.c, g.as_mut_ptr() as sys::fmi2FMUstate) })),
-        ("serialised state with a flipped byte", Stepping, Box::new(move |f| { let mut b = s1.clone(); let i = b.len() / 2; b[i] ^= 1; deserialize(f, &b) })),
-        ("serialised state truncated", Stepping, Box::new(move |f| deserialize(f, &s2[..s2.len() - 1]))),
-        ("serialised state of another format version", Stepping, Box::new(move |f| { let mut b = s3.clone(); b[8] = 2; deserialize(f, &b) })),
-        ("serialisation buffer too small", Stepping, Box::new(|f| unsafe {
-            let mut st: sys::fmi2FMUstate = null_mut();
-            fmi2GetFMUstate(f.c, &mut st);
-            let mut buf = [0 as sys::fmi2Byte; 8];
-            let s = fmi2SerializeFMUstate(f.c, st, buf.as_mut_ptr(), buf.len());
-            fmi2FreeFMUstate(f.c, &mut st);
-            s
-        })),
-        ("input derivative of order 0", Stepping, Box::new(|f| unsafe { fmi2SetRealInputDerivatives(f.c, [0u32].as_ptr(), 1, [0].as_ptr(), &0.1) })),
-        ("input derivative of order 2 (ignored)", Stepping, Box::new(|f| unsafe { fmi2SetRealInputDerivatives(f.c, [0u32].as_ptr(), 1, [2].as_ptr(), &0.1) })),
-        ("input derivative of an output", Stepping, Box::new(|f| unsafe { fmi2SetRealInputDerivatives(f.c, [1u32].as_ptr(), 1, [1].as_ptr(), &0.1) })),
-        ("input derivative NaN", Stepping, Box::new(|f| unsafe { fmi2SetRealInputDerivatives(f.c, [0u32].as_ptr(), 1, [1].as_ptr(), &f64::NAN) })),
-        ("unknown value reference (fmi2GetInteger)", Stepping, Box::new(|f| unsafe { let mut x = 0; fmi2GetInteger(f.c, [0u32].as_ptr(), 1, &mut x) })),
-        ("setting an Integer output", Stepping, Box::new(|f| unsafe { fmi2SetInteger(f.c, [IntegerVariable::ModulesRunning.value_reference()].as_ptr(), 1, &3) })),
-        ("nModules = 0 at initialisation", Initialization, Box::new(|f| { f.set_integer(IntegerVariable::NModules, 0); unsafe { fmi2ExitInitializationMode(f.c) } })),
-        ("dispatch = 9 at initialisation", Initialization, Box::new(|f| { f.set_integer(IntegerVariable::Dispatch, 9); unsafe { fmi2ExitInitializationMode(f.c) } })),
-        ("sequential dispatch with belowMinimum = 0 at initialisation", Initialization, Box::new(|f| { f.set_integer(IntegerVariable::NModules, 10); f.set_integer(IntegerVariable::Dispatch, 2); unsafe { fmi2ExitInitializationMode(f.c) } })),
-        ("parameterSpread = 0.9 at initialisation", Initialization, Box::new(|f| { f.set(ParameterSpread, 0.9); unsafe { fmi2ExitInitializationMode(f.c) } })),
-        ("coldStartTime = -1 s at initialisation", Initialization, Box::new(|f| { f.set_integer(IntegerVariable::BelowMinimum, 2); f.set(ColdStartTime, -1.0); unsafe { fmi2ExitInitializationMode(f.c) } })),
-        ("fmi2SetString with a null string", Initialization, Box::new(|f| unsafe { let v = [null()]; fmi2SetString(f.c, [StringVariable::ModuleParameterFile.value_reference()].as_ptr(), 1, v.as_ptr()) })),
-        ("moduleParameterFile that does not exist", Initialization, Box::new(|f| unsafe {
-            let v = [c"/nonexistent/params.json".as_ptr()];
-            fmi2SetString(f.c, [StringVariable::ModuleParameterFile.value_reference()].as_ptr(), 1, v.as_ptr());
-            fmi2ExitInitializationMode(f.c)
-        })),
-        ("nModules set after initialisation", Stepping, Box::new(|f| f.set_integer(IntegerVariable::NModules, 4))),
-        ("setpoint derivative for a hub", Initialization, Box::new(|f| { f.set_integer(IntegerVariable::NModules, 4); unsafe { fmi2SetRealInputDerivatives(f.c, [0u32].as_ptr(), 1, [1].as_ptr(), &0.1) } })),
-        ("frequency = NaN", Stepping, Box::new(|f| f.set(Frequency, f64::NAN))),
-        ("fcrDUpCapacity = -1 W at initialisation", Initialization, Box::new(|f| { f.set(FcrDUpCapacity, -1.0); unsafe { fmi2ExitInitializationMode(f.c) } })),
-        ("ffrTriggerFrequency = 49.95 Hz at initialisation", Initialization, Box::new(|f| { f.set(FfrCapacity, 500.0); f.set(FfrTriggerFrequency, 49.95); unsafe { fmi2ExitInitializationMode(f.c) } })),
-        ("reserve capacity beyond the operating window at initialisation (warning)", Initialization, Box::new(|f| { f.set(FcrDUpCapacity, 5000.0); unsafe { fmi2ExitInitializationMode(f.c) } })),
-        ("reserve request beyond the operating window while stepping (warning)", Initialization, Box::new(|f| unsafe {
-            f.set(FcrDUpCapacity, 200.0);
-            f.set(Setpoint, 70.0);
-            fmi2ExitInitializationMode(f.c);
-            f.set(Setpoint, 62.0);
-            f.set(Frequency, 49.0);
-            fmi2DoStep(f.c, 0.0, 1.0, 1)
-        })),
-        ("frequency derivative with reserves offered", Initialization, Box::new(|f| unsafe {
-            f.set(FcrNCapacity, 100.0);
-            fmi2SetRealInputDerivatives(f.c, [Frequency.value_reference()].as_ptr(), 1, [1].as_ptr(), &0.01)
-        })),
-        ("fmi2GetRealOutputDerivatives", Stepping, Box::new(|f| unsafe { let mut x = 0.0; fmi2GetRealOutputDerivatives(f.c, [1u32].as_ptr(), 1, [1].as_ptr(), &mut x) })),
-        ("fmi2GetDirectionalDerivative", Stepping, Box::new(|f| unsafe { let mut x = 0.0; fmi2GetDirectionalDerivative(f.c, [1u32].as_ptr(), 1, [0u32].as_ptr(), 1, &1.0, &mut x) })),
-        ("fmi2CancelStep", Stepping, Box::new(|f| unsafe { fmi2CancelStep(f.c) })),
-        ("fmi2GetStatus(fmi2DoStepStatus)", Stepping, Box::new(|f| unsafe { let mut s = 0; fmi2GetStatus(f.c, sys::fmi2StatusKind_fmi2DoStepStatus, &mut s) })),
+        (
+            "setpoint = NaN",
+            Stepping,
+            Box::new(|f| f.set(Setpoint, f64::NAN)),
+        ),
+        (
+            "setpoint = +inf",
+            Stepping,
+            Box::new(|f| f.set(Setpoint, f64::INFINITY)),
+        ),
+        (
+            "setpoint = -inf",
+            Stepping,
+            Box::new(|f| f.set(Setpoint, f64::NEG_INFINITY)),
+        ),
+        (
+            "setpoint outside [60, 100] % (clamped)",
+            Stepping,
+            Box::new(|f| f.set(Setpoint, 30.0)),
+        ),
+        (
+            "parameter = NaN",
+            Initialization,
+            Box::new(|f| f.set(Gain, f64::NAN)),
+        ),
+        (
+            "unknown value reference (fmi2SetReal)",
+            Stepping,
+            Box::new(|f| unsafe { fmi2SetReal(f.c, [19u32].as_ptr(), 1, &1.0) }),
+        ),
+        (
+            "unknown value reference (fmi2GetReal)",
+            Stepping,
+            Box::new(|f| unsafe {
+                let mut x = 0.0;
+                fmi2GetReal(f.c, [u32::MAX].as_ptr(), 1, &mut x)
+            }),
+        ),
+        (
+            "setting an output",
+            Stepping,
+            Box::new(|f| f.set(Current, 1.0)),
+        ),
+        (
+            "setting a fixed parameter after initialisation",
+            Stepping,
+            Box::new(|f| f.set(Gain, 0.6)),
+        ),
+        (
+            "fmi2GetReal before initialisation mode",
+            Instantiated,
+            Box::new(|f| unsafe {
+                let mut x = 0.0;
+                fmi2GetReal(f.c, [1u32].as_ptr(), 1, &mut x)
+            }),
+        ),
+        (
+            "fmi2DoStep before initialisation",
+            Instantiated,
+            Box::new(|f| unsafe { fmi2DoStep(f.c, 0.0, 1.0, 1) }),
+        ),
+        (
+            "fmi2DoStep after fmi2Terminate",
+            Terminated,
+            Box::new(|f| unsafe { fmi2DoStep(f.c, 1.0, 1.0, 1) }),
+        ),
+        (
+            "fmi2ExitInitializationMode twice",
+            Stepping,
+            Box::new(|f| unsafe { fmi2ExitInitializationMode(f.c) }),
+        ),
+        (
+            "step size -1 s",
+            Stepping,
+            Box::new(|f| unsafe { fmi2DoStep(f.c, 1.0, -1.0, 1) }),
+        ),
+        (
+            "step size 0 s",
+            Stepping,
+            Box::new(|f| unsafe { fmi2DoStep(f.c, 1.0, 0.0, 1) }),
+        ),
+        (
+            "step size NaN",
+            Stepping,
+            Box::new(|f| unsafe { fmi2DoStep(f.c, 1.0, f64::NAN, 1) }),
+        ),
+        (
+            "step size +inf",
+            Stepping,
+            Box::new(|f| unsafe { fmi2DoStep(f.c, 1.0, f64::INFINITY, 1) }),
+        ),
+        (
+            "step size 1e306 s (the energy total would overflow)",
+            Stepping,
+            Box::new(|f| unsafe { fmi2DoStep(f.c, 1.0, 1e306, 1) }),
+        ),
+        (
+            "step past stopTime of fmi2SetupExperiment",
+            Instantiated,
+            Box::new(|f| unsafe {
+                fmi2SetupExperiment(f.c, 0, 0.0, 0.0, 1, 10.0);
+                fmi2EnterInitializationMode(f.c);
+                fmi2ExitInitializationMode(f.c);
+                fmi2DoStep(f.c, 0.0, 20.0, 1)
+            }),
+        ),
+        (
+            "communication point off by 1 s",
+            Stepping,
+            Box::new(|f| unsafe { fmi2DoStep(f.c, 2.0, 1.0, 1) }),
+        ),
+        (
+            "tauPole1 = -1 s at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set(TauPole1, -1.0);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "minSetpoint > maxSetpoint at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set(MinSetpoint, 90.0);
+                f.set(MaxSetpoint, 80.0);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "tauPole1 = tauPole2 at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set(TauPole2, 1.995);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "gain = 1e200 A/% at initialisation (overflow)",
+            Initialization,
+            Box::new(|f| {
+                f.set(Gain, 1e200);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "null value-reference array",
+            Stepping,
+            Box::new(|f| unsafe {
+                let mut x = 0.0;
+                fmi2GetReal(f.c, null(), 1, &mut x)
+            }),
+        ),
+        (
+            "null value array",
+            Stepping,
+            Box::new(|f| unsafe { fmi2GetReal(f.c, [1u32].as_ptr(), 1, null_mut()) }),
+        ),
+        (
+            "null component",
+            Stepping,
+            Box::new(|_| unsafe { fmi2DoStep(null_mut(), 0.0, 1.0, 1) }),
+        ),
+        (
+            "component pointer not made by this FMU",
+            Stepping,
+            Box::new(|_| unsafe {
+                let mut g = [7u64; 512];
+                fmi2DoStep(g.as_mut_ptr() as sys::fmi2Component, 0.0, 1.0, 1)
+            }),
+        ),
+        (
+            "unknown log category",
+            Stepping,
+            Box::new(|f| unsafe {
+                let n = [c"nope".as_ptr()];
+                fmi2SetDebugLogging(f.c, 1, 1, n.as_ptr())
+            }),
+        ),
+        (
+            "null log category",
+            Stepping,
+            Box::new(|f| unsafe {
+                let n = [null()];
+                fmi2SetDebugLogging(f.c, 1, 1, n.as_ptr())
+            }),
+        ),
+        (
+            "fmi2SetFMUstate(NULL)",
+            Stepping,
+            Box::new(|f| unsafe { fmi2SetFMUstate(f.c, null_mut()) }),
+        ),
+        (
+            "FMU state pointer not made by this FMU",
+            Stepping,
+            Box::new(|f| unsafe {
+                let mut g = [9u64; 512];
+                fmi2SetFMUstate(f.c, g.as_mut_ptr() as sys::fmi2FMUstate)
+            }),
+        ),
+        (
+            "serialised state with a flipped byte",
+            Stepping,
+            Box::new(move |f| {
+                let mut b = s1.clone();
+                let i = b.len() / 2;
+                b[i] ^= 1;
+                deserialize(f, &b)
+            }),
+        ),
+        (
+            "serialised state truncated",
+            Stepping,
+            Box::new(move |f| deserialize(f, &s2[..s2.len() - 1])),
+        ),
+        (
+            "serialised state of another format version",
+            Stepping,
+            Box::new(move |f| {
+                let mut b = s3.clone();
+                b[8] = 2;
+                deserialize(f, &b)
+            }),
+        ),
+        (
+            "serialisation buffer too small",
+            Stepping,
+            Box::new(|f| unsafe {
+                let mut st: sys::fmi2FMUstate = null_mut();
+                fmi2GetFMUstate(f.c, &mut st);
+                let mut buf = [0 as sys::fmi2Byte; 8];
+                let s = fmi2SerializeFMUstate(f.c, st, buf.as_mut_ptr(), buf.len());
+                fmi2FreeFMUstate(f.c, &mut st);
+                s
+            }),
+        ),
+        (
+            "input derivative of order 0",
+            Stepping,
+            Box::new(|f| unsafe {
+                fmi2SetRealInputDerivatives(f.c, [0u32].as_ptr(), 1, [0].as_ptr(), &0.1)
+            }),
+        ),
+        (
+            "input derivative of order 2 (ignored)",
+            Stepping,
+            Box::new(|f| unsafe {
+                fmi2SetRealInputDerivatives(f.c, [0u32].as_ptr(), 1, [2].as_ptr(), &0.1)
+            }),
+        ),
+        (
+            "input derivative of an output",
+            Stepping,
+            Box::new(|f| unsafe {
+                fmi2SetRealInputDerivatives(f.c, [1u32].as_ptr(), 1, [1].as_ptr(), &0.1)
+            }),
+        ),
+        (
+            "input derivative NaN",
+            Stepping,
+            Box::new(|f| unsafe {
+                fmi2SetRealInputDerivatives(f.c, [0u32].as_ptr(), 1, [1].as_ptr(), &f64::NAN)
+            }),
+        ),
+        (
+            "unknown value reference (fmi2GetInteger)",
+            Stepping,
+            Box::new(|f| unsafe {
+                let mut x = 0;
+                fmi2GetInteger(f.c, [0u32].as_ptr(), 1, &mut x)
+            }),
+        ),
+        (
+            "setting an Integer output",
+            Stepping,
+            Box::new(|f| unsafe {
+                fmi2SetInteger(
+                    f.c,
+                    [IntegerVariable::ModulesRunning.value_reference()].as_ptr(),
+                    1,
+                    &3,
+                )
+            }),
+        ),
+        (
+            "nModules = 0 at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set_integer(IntegerVariable::NModules, 0);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "dispatch = 9 at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set_integer(IntegerVariable::Dispatch, 9);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "sequential dispatch with belowMinimum = 0 at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set_integer(IntegerVariable::NModules, 10);
+                f.set_integer(IntegerVariable::Dispatch, 2);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "parameterSpread = 0.9 at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set(ParameterSpread, 0.9);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "coldStartTime = -1 s at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set_integer(IntegerVariable::BelowMinimum, 2);
+                f.set(ColdStartTime, -1.0);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "fmi2SetString with a null string",
+            Initialization,
+            Box::new(|f| unsafe {
+                let v = [null()];
+                fmi2SetString(
+                    f.c,
+                    [StringVariable::ModuleParameterFile.value_reference()].as_ptr(),
+                    1,
+                    v.as_ptr(),
+                )
+            }),
+        ),
+        (
+            "moduleParameterFile that does not exist",
+            Initialization,
+            Box::new(|f| unsafe {
+                let v = [c"/nonexistent/params.json".as_ptr()];
+                fmi2SetString(
+                    f.c,
+                    [StringVariable::ModuleParameterFile.value_reference()].as_ptr(),
+                    1,
+                    v.as_ptr(),
+                );
+                fmi2ExitInitializationMode(f.c)
+            }),
+        ),
+        (
+            "nModules set after initialisation",
+            Stepping,
+            Box::new(|f| f.set_integer(IntegerVariable::NModules, 4)),
+        ),
+        (
+            "setpoint derivative for a hub",
+            Initialization,
+            Box::new(|f| {
+                f.set_integer(IntegerVariable::NModules, 4);
+                unsafe { fmi2SetRealInputDerivatives(f.c, [0u32].as_ptr(), 1, [1].as_ptr(), &0.1) }
+            }),
+        ),
+        (
+            "frequency = NaN",
+            Stepping,
+            Box::new(|f| f.set(Frequency, f64::NAN)),
+        ),
+        (
+            "fcrDUpCapacity = -1 W at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set(FcrDUpCapacity, -1.0);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "ffrTriggerFrequency = 49.95 Hz at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set(FfrCapacity, 500.0);
+                f.set(FfrTriggerFrequency, 49.95);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "reserve capacity beyond the operating window at initialisation (warning)",
+            Initialization,
+            Box::new(|f| {
+                f.set(FcrDUpCapacity, 5000.0);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "reserve request beyond the operating window while stepping (warning)",
+            Initialization,
+            Box::new(|f| unsafe {
+                f.set(FcrDUpCapacity, 200.0);
+                f.set(Setpoint, 70.0);
+                fmi2ExitInitializationMode(f.c);
+                f.set(Setpoint, 62.0);
+                f.set(Frequency, 49.0);
+                fmi2DoStep(f.c, 0.0, 1.0, 1)
+            }),
+        ),
+        (
+            "frequency derivative with reserves offered",
+            Initialization,
+            Box::new(|f| unsafe {
+                f.set(FcrNCapacity, 100.0);
+                fmi2SetRealInputDerivatives(
+                    f.c,
+                    [Frequency.value_reference()].as_ptr(),
+                    1,
+                    [1].as_ptr(),
+                    &0.01,
+                )
+            }),
+        ),
+        (
+            "fmi2GetRealOutputDerivatives",
+            Stepping,
+            Box::new(|f| unsafe {
+                let mut x = 0.0;
+                fmi2GetRealOutputDerivatives(f.c, [1u32].as_ptr(), 1, [1].as_ptr(), &mut x)
+            }),
+        ),
+        (
+            "fmi2GetDirectionalDerivative",
+            Stepping,
+            Box::new(|f| unsafe {
+                let mut x = 0.0;
+                fmi2GetDirectionalDerivative(
+                    f.c,
+                    [1u32].as_ptr(),
+                    1,
+                    [0u32].as_ptr(),
+                    1,
+                    &1.0,
+                    &mut x,
+                )
+            }),
+        ),
+        (
+            "fmi2CancelStep",
+            Stepping,
+            Box::new(|f| unsafe { fmi2CancelStep(f.c) }),
+        ),
+        (
+            "fmi2GetStatus(fmi2DoStepStatus)",
+            Stepping,
+            Box::new(|f| unsafe {
+                let mut s = 0;
+                fmi2GetStatus(f.c, sys::fmi2StatusKind_fmi2DoStepStatus, &mut s)
+            }),
+        ),
     ]
 }
 
 fn instantiate_cases() -> Vec<(&'static str, Box<dyn Fn() -> bool>)> {
     vec![
-        ("fmi2Instantiate with a wrong GUID", Box::new(|| unsafe {
-            let cb = callbacks();
-            fmi2Instantiate(c"report".as_ptr(), sys::fmi2Type_fmi2CoSimulation, c"{0}".as_ptr(), null(), &cb, 0, 0).is_null()
-        })),
-        ("fmi2Instantiate for model exchange", Box::new(|| unsafe {
-            let cb = callbacks();
-            let guid = CString::new(GUID).unwrap();
-            fmi2Instantiate(c"report".as_ptr(), sys::fmi2Type_fmi2ModelExchange, guid.as_ptr(), null(), &cb, 0, 0).is_null()
-        })),
-        ("fmi2Instantiate with an empty instance name", Box::new(|| unsafe {
-            let cb = callbacks();
-            let guid = CString::new(GUID).unwrap();
-            fmi2Instantiate(c"".as_ptr(), sys::fmi2Type_fmi2CoSimulation, guid.as_ptr(), null(), &cb, 0, 0).is_null()
-        })),
+        (
+            "fmi2Instantiate with a wrong GUID",
+            Box::new(|| unsafe {
+                let cb = callbacks();
+                fmi2Instantiate(
+                    c"report".as_ptr(),
+                    sys::fmi2Type_fmi2CoSimulation,
+                    c"{0}".as_ptr(),
+                    null(),
+                    &cb,
+                    0,
+                    0,
+                )
+                .is_null()
+            }),
+        ),
+        (
+            "fmi2Instantiate for model exchange",
+            Box::new(|| unsafe {
+                let cb = callbacks();
+                let guid = CString::new(GUID).unwrap();
+                fmi2Instantiate(
+                    c"report".as_ptr(),
+                    sys::fmi2Type_fmi2ModelExchange,
+                    guid.as_ptr(),
+                    null(),
+                    &cb,
+                    0,
+                    0,
+                )
+                .is_null()
+            }),
+        ),
+        (
+            "fmi2Instantiate with an empty instance name",
+            Box::new(|| unsafe {
+                let cb = callbacks();
+                let guid = CString::new(GUID).unwrap();
+                fmi2Instantiate(
+                    c"".as_ptr(),
+                    sys::fmi2Type_fmi2CoSimulation,
+                    guid.as_ptr(),
+                    null(),
+                    &cb,
+                    0,
+                    0,
+                )
+                .is_null()
+            }),
+        ),
     ]
 }
 
@@ -251,7 +687,8 @@ fn escape(text: &str) -> String {
 fn table() -> String {
     let _ = log::set_logger(&CAPTURE);
     log::set_max_level(log::LevelFilter::Trace);
-    let mut out = String::from("| bad input | stage | status | logged message |\n|---|---|---|---|\n");
+    let mut out =
+        String::from("| bad input | stage | status | logged message |\n|---|---|---|---|\n");
     for (what, stage, call) in cases() {
         let f = Fmu::at(stage);
         take_messages();
@@ -264,8 +701,15 @@ fn table() -> String {
             Stage::Stepping => "stepComplete",
             Stage::Terminated => "terminated",
         };
-        let message = messages.first().map(String::as_str).unwrap_or("(no instance to log through)");
-        out += &format!("| {what} | {stage_name} | {} | {} |\n", status_name(status), escape(message));
+        let message = messages
+            .first()
+            .map(String::as_str)
+            .unwrap_or("(no instance to log through)");
+        out += &format!(
+            "| {what} | {stage_name} | {} | {} |\n",
+            status_name(status),
+            escape(message)
+        );
     }
     for (what, call) in instantiate_cases() {
         take_messages();
@@ -290,7 +734,8 @@ fn robustness_md_lists_what_every_bad_input_gets() {
     if current != wanted {
         if std::env::var_os("UPDATE_ROBUSTNESS").is_some() {
             let updated = format!("{}{BEGIN}{wanted}{}", &text[..a], &text[b..]);
-            std::fs::write(&path, updated).unwrap_or_else(|e| panic!("cannot write ROBUSTNESS.md: {e}"));
+            std::fs::write(&path, updated)
+                .unwrap_or_else(|e| panic!("cannot write ROBUSTNESS.md: {e}"));
         } else {
             panic!("ROBUSTNESS.md is out of date; rerun with UPDATE_ROBUSTNESS=1. Generated:\n{generated}");
         }

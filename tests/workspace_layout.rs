@@ -10,11 +10,29 @@ use std::process::Command;
 fn dependency_tree(package: &str) -> BTreeSet<String> {
     let manifest = concat!(env!("CARGO_MANIFEST_DIR"), "/Cargo.toml");
     let output = Command::new(env!("CARGO"))
-        .args(["tree", "--locked", "--manifest-path", manifest, "--package", package])
-        .args(["--edges", "normal,build", "--prefix", "none", "--format", "{p}"])
+        .args([
+            "tree",
+            "--locked",
+            "--manifest-path",
+            manifest,
+            "--package",
+            package,
+        ])
+        .args([
+            "--edges",
+            "normal,build",
+            "--prefix",
+            "none",
+            "--format",
+            "{p}",
+        ])
         .output()
         .expect("cargo tree runs");
-    assert!(output.status.success(), "cargo tree -p {package}: {}", String::from_utf8_lossy(&output.stderr));
+    assert!(
+        output.status.success(),
+        "cargo tree -p {package}: {}",
+        String::from_utf8_lossy(&output.stderr)
+    );
     String::from_utf8(output.stdout)
         .expect("cargo tree prints UTF-8")
         .lines()
@@ -24,17 +42,34 @@ fn dependency_tree(package: &str) -> BTreeSet<String> {
 }
 
 fn assert_absent(package: &str, tree: &BTreeSet<String>, forbidden: &[&str]) {
-    let found: Vec<&&str> = forbidden.iter().filter(|name| tree.contains(**name)).collect();
-    assert!(found.is_empty(), "{package} depends on {found:?}; its tree: {tree:?}");
+    let found: Vec<&&str> = forbidden
+        .iter()
+        .filter(|name| tree.contains(**name))
+        .collect();
+    assert!(
+        found.is_empty(),
+        "{package} depends on {found:?}; its tree: {tree:?}"
+    );
 }
 
 /// The identification tool's crates (command line, CSV, timestamps, progress bar, fits).
-const TOOL_CRATES: [&str; 7] = ["aem-identify", "clap", "csv", "chrono", "indicatif", "levenberg-marquardt", "nalgebra"];
+const TOOL_CRATES: [&str; 7] = [
+    "aem-identify",
+    "clap",
+    "csv",
+    "chrono",
+    "indicatif",
+    "levenberg-marquardt",
+    "nalgebra",
+];
 
 #[test]
 fn the_fmu_builds_on_the_model_and_carries_nothing_of_the_tool() {
     let tree = dependency_tree("aem-electrolyser-fmu");
-    assert!(tree.contains("aem-model") && tree.contains("fmi-sys"), "{tree:?}");
+    assert!(
+        tree.contains("aem-model") && tree.contains("fmi-sys"),
+        "{tree:?}"
+    );
     assert_absent("aem-electrolyser-fmu", &tree, &TOOL_CRATES);
 }
 
@@ -56,5 +91,9 @@ fn the_identification_uses_the_model_and_never_the_fmu() {
 fn the_runner_knows_the_model_only_through_the_packaged_fmu() {
     let tree = dependency_tree("aem-run");
     assert!(tree.contains("fmi"), "{tree:?}");
-    assert_absent("aem-run", &tree, &["aem-model", "aem-electrolyser-fmu", "aem-identify"]);
+    assert_absent(
+        "aem-run",
+        &tree,
+        &["aem-model", "aem-electrolyser-fmu", "aem-identify"],
+    );
 }

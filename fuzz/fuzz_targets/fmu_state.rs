@@ -38,12 +38,25 @@ fuzz_target!(|data: &[u8]| {
     };
     let guid = std::ffi::CString::new(GUID).unwrap();
     unsafe {
-        let c = fmi2Instantiate(c"fuzz".as_ptr(), sys::fmi2Type_fmi2CoSimulation, guid.as_ptr(), null(), &callbacks, 0, 0);
+        let c = fmi2Instantiate(
+            c"fuzz".as_ptr(),
+            sys::fmi2Type_fmi2CoSimulation,
+            guid.as_ptr(),
+            null(),
+            &callbacks,
+            0,
+            0,
+        );
         assert!(!c.is_null());
         fmi2EnterInitializationMode(c);
         fmi2ExitInitializationMode(c);
         let mut state: sys::fmi2FMUstate = null_mut();
-        let status = fmi2DeSerializeFMUstate(c, bytes.as_ptr() as *const sys::fmi2Byte, bytes.len(), &mut state);
+        let status = fmi2DeSerializeFMUstate(
+            c,
+            bytes.as_ptr() as *const sys::fmi2Byte,
+            bytes.len(),
+            &mut state,
+        );
         if status == sys::fmi2Status_fmi2OK {
             assert!(!state.is_null());
             if fmi2SetFMUstate(c, state) == sys::fmi2Status_fmi2OK {

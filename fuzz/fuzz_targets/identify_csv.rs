@@ -12,7 +12,9 @@ use aem_identify::segments::{find_steps, running_segments, StepOptions};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    let Some((choice, text)) = data.split_first() else { return };
+    let Some((choice, text)) = data.split_first() else {
+        return;
+    };
     let mut options = ReadOptions::default();
     if choice & 1 == 1 {
         options.columns = ColumnMap::with_mappings(&["module=unit".to_string()]).unwrap();

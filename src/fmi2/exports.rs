@@ -14,7 +14,9 @@ use std::ffi::{c_char, c_int, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use fmi_sys::fmi2 as sys;
-use sys::{fmi2Boolean, fmi2Component, fmi2FMUstate, fmi2Real, fmi2Status, fmi2StatusKind, fmi2String};
+use sys::{
+    fmi2Boolean, fmi2Component, fmi2FMUstate, fmi2Real, fmi2Status, fmi2StatusKind, fmi2String,
+};
 
 use super::file_location::{file_uri_to_path, Os};
 use super::fmu_state::SavedState;
@@ -22,20 +24,29 @@ use super::instance::Instance;
 use super::logger::{c_string, emit_to, Logger};
 use super::state_machine::Call;
 use super::status::{error, CallResult, Failure, Status};
-use crate::model_description::{CAN_GET_AND_SET_FMU_STATE, CAN_INTERPOLATE_INPUTS, CAN_SERIALIZE_FMU_STATE, GUID};
+use crate::model_description::{
+    CAN_GET_AND_SET_FMU_STATE, CAN_INTERPOLATE_INPUTS, CAN_SERIALIZE_FMU_STATE, GUID,
+};
 use crate::model_description::{CAN_RUN_ASYNCHRONOUSLY, PROVIDES_DIRECTIONAL_DERIVATIVE};
 
 // What the model description promises must match what is implemented below.
-const _: () = assert!(CAN_GET_AND_SET_FMU_STATE && CAN_SERIALIZE_FMU_STATE && CAN_INTERPOLATE_INPUTS);
+const _: () =
+    assert!(CAN_GET_AND_SET_FMU_STATE && CAN_SERIALIZE_FMU_STATE && CAN_INTERPOLATE_INPUTS);
 const _: () = assert!(!PROVIDES_DIRECTIONAL_DERIVATIVE && !CAN_RUN_ASYNCHRONOUSLY);
 
 const ERROR: fmi2Status = sys::fmi2Status_fmi2Error;
 
 /// Runs `body` on the instance behind `c` if `call` is allowed in its state; catches panics.
-fn guard(c: fmi2Component, call: Call, body: impl FnOnce(&mut Instance) -> CallResult) -> fmi2Status {
+fn guard(
+    c: fmi2Component,
+    call: Call,
+    body: impl FnOnce(&mut Instance) -> CallResult,
+) -> fmi2Status {
     let outcome = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: a non-null component is a pointer this library returned from fmi2Instantiate.
-        let Some(instance) = (unsafe { instance_mut(c) }) else { return ERROR };
+        let Some(instance) = (unsafe { instance_mut(c) }) else {
+            return ERROR;
+        };
         if !call.allowed_in(instance.state) {
             let message = format!(
                 "{} is not allowed in state {}; it is allowed in: {}",
@@ -49,7 +60,9 @@ fn guard(c: fmi2Component, call: Call, body: impl FnOnce(&mut Instance) -> CallR
         match body(instance) {
             Ok(status) => status.to_c(),
             Err(Failure { severity, message }) => {
-                instance.logger.failure(severity.to_c(), &format!("{}: {message}", call.name()));
+                instance
+                    .logger
+                    .failure(severity.to_c(), &format!("{}: {message}", call.name()));
                 severity.to_c()
             }
         }
@@ -60,7 +73,13 @@ fn guard(c: fmi2Component, call: Call, body: impl FnOnce(&mut Instance) -> CallR
             // SAFETY: as above.
             if let Some(instance) = unsafe { instance_mut(c) } {
                 instance.state = super::state_machine::FmiState::Error;
-                instance.logger.failure(ERROR, &format!("{}: internal error (panic); instance set to error state", call.name()));
+                instance.logger.failure(
+                    ERROR,
+                    &format!(
+                        "{}: internal error (panic); instance set to error state",
+                        call.name()
+                    ),
+                );
             }
         }));
         ERROR
@@ -115,7 +134,9 @@ fn check_array<T>(ptr: *const T, n: usize, what: &str) -> Result<(), Failure> {
         return Err(error(format!("{what} is not aligned for its type")));
     }
     if n > isize::MAX as usize / std::mem::size_of::<T>().max(1) {
-        return Err(error(format!("{what}: {n} values is more than any array can hold")));
+        return Err(error(format!(
+            "{what}: {n} values is more than any array can hold"
+        )));
     }
     Ok(())
 }
@@ -140,7 +161,9 @@ fn kind_name(kind: fmi2StatusKind) -> String {
 }
 
 fn not_supported(what: &str) -> CallResult {
-    Err(error(format!("{what} is not supported by this FMU (see its model description)")))
+    Err(error(format!(
+        "{what} is not supported by this FMU (see its model description)"
+    )))
 }
 
 // ---------------------------------------------------------------- inquiry, no instance
@@ -174,14 +197,25 @@ pub unsafe extern "C" fn fmi2Instantiate(
 ) -> fmi2Component {
     let made = catch_unwind(AssertUnwindSafe(|| {
         // SAFETY: the importer passes a valid callback struct or null.
-        let Some(functions) = (unsafe { functions.as_ref() }) else { return std::ptr::null_mut() };
+        let Some(functions) = (unsafe { functions.as_ref() }) else {
+            return std::ptr::null_mut();
+        };
         // SAFETY: the importer passes NUL-terminated strings or null.
-        let text = |p: fmi2String| (!p.is_null()).then(|| unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned());
+        let text = |p: fmi2String| {
+            (!p.is_null()).then(|| unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned())
+        };
         let name = text(instanceName).unwrap_or_default();
         let fail = |message: String| {
             // SAFETY: the importer's own logger and environment, from its callback struct.
             unsafe {
-                emit_to(functions.logger, functions.componentEnvironment, &c_string(&name), ERROR, "logStatusError", &message)
+                emit_to(
+                    functions.logger,
+                    functions.componentEnvironment,
+                    &c_string(&name),
+                    ERROR,
+                    "logStatusError",
+                    &message,
+                )
             };
             std::ptr::null_mut()
         };
@@ -189,20 +223,29 @@ pub unsafe extern "C" fn fmi2Instantiate(
             return fail("fmi2Instantiate: instanceName must be a non-empty string".into());
         }
         if fmuType != sys::fmi2Type_fmi2CoSimulation {
-            return fail(format!("fmi2Instantiate: fmuType {fmuType} refused: this FMU supports co-simulation only"));
+            return fail(format!(
+                "fmi2Instantiate: fmuType {fmuType} refused: this FMU supports co-simulation only"
+            ));
         }
         match text(fmuGUID) {
             Some(guid) if guid == GUID => {}
             other => {
                 let given = other.map_or("NULL".to_string(), |g| format!("\"{g}\""));
-                return fail(format!("fmi2Instantiate: GUID {given} does not match the model description's {GUID}"));
+                return fail(format!(
+                    "fmi2Instantiate: GUID {given} does not match the model description's {GUID}"
+                ));
             }
         }
-        let logger =
-            Logger::new(functions.logger, functions.componentEnvironment, c_string(&name), loggingOn != 0);
+        let logger = Logger::new(
+            functions.logger,
+            functions.componentEnvironment,
+            c_string(&name),
+            loggingOn != 0,
+        );
         // A location that is not a local file URI only means that a relative
         // moduleParameterFile is looked up in the working directory alone.
-        let resources = text(fmuResourceLocation).and_then(|uri| file_uri_to_path(&uri, Os::HERE).ok());
+        let resources =
+            text(fmuResourceLocation).and_then(|uri| file_uri_to_path(&uri, Os::HERE).ok());
         Box::into_raw(Box::new(Instance::new(logger, resources))) as fmi2Component
     }));
     made.unwrap_or(std::ptr::null_mut())
@@ -242,7 +285,9 @@ pub unsafe extern "C" fn fmi2SetDebugLogging(
             // SAFETY: non-null, NUL-terminated.
             names.push(unsafe { CStr::from_ptr(*p) }.to_string_lossy().into_owned());
         }
-        inst.logger.set_debug_logging(loggingOn != 0, &names).map_err(error)?;
+        inst.logger
+            .set_debug_logging(loggingOn != 0, &names)
+            .map_err(error)?;
         Ok(Status::Ok)
     })
 }
@@ -259,21 +304,31 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
     stopTimeDefined: fmi2Boolean,
     stopTime: fmi2Real,
 ) -> fmi2Status {
-    guard(c, Call::SetupExperiment, |inst| inst.setup_experiment(startTime, (stopTimeDefined != 0).then_some(stopTime)))
+    guard(c, Call::SetupExperiment, |inst| {
+        inst.setup_experiment(startTime, (stopTimeDefined != 0).then_some(stopTime))
+    })
 }
 const _: sys::fmi2SetupExperimentTYPE = Some(fmi2SetupExperiment);
 
 /// Enters initialization mode.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2EnterInitializationMode(c: fmi2Component) -> fmi2Status {
-    guard(c, Call::EnterInitializationMode, Instance::enter_initialization_mode)
+    guard(
+        c,
+        Call::EnterInitializationMode,
+        Instance::enter_initialization_mode,
+    )
 }
 const _: sys::fmi2EnterInitializationModeTYPE = Some(fmi2EnterInitializationMode);
 
 /// Validates the parameters and starts the module in steady state.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2ExitInitializationMode(c: fmi2Component) -> fmi2Status {
-    guard(c, Call::ExitInitializationMode, Instance::exit_initialization_mode)
+    guard(
+        c,
+        Call::ExitInitializationMode,
+        Instance::exit_initialization_mode,
+    )
 }
 const _: sys::fmi2ExitInitializationModeTYPE = Some(fmi2ExitInitializationMode);
 
@@ -429,7 +484,9 @@ pub unsafe extern "C" fn fmi2SetString(
                 return Err(error("a String value is a null pointer"));
             }
             // SAFETY: a non-null fmi2String is a NUL-terminated string (FMI 2.0, section 2.1.2).
-            let text = unsafe { CStr::from_ptr(*p) }.to_str().map_err(|_| error("a String value is not UTF-8"))?;
+            let text = unsafe { CStr::from_ptr(*p) }
+                .to_str()
+                .map_err(|_| error("a String value is not UTF-8"))?;
             values.push(text.to_string());
         }
         inst.set_string(vrs, &values)
@@ -472,9 +529,14 @@ unsafe fn store(slot: *mut fmi2FMUstate, state: SavedState) -> CallResult {
 
 /// Copies the instance's complete state.
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate) -> fmi2Status {
+pub unsafe extern "C" fn fmi2GetFMUstate(
+    c: fmi2Component,
+    FMUstate: *mut fmi2FMUstate,
+) -> fmi2Status {
     // SAFETY: FMUstate points to a slot holding null or a state of ours.
-    guard(c, Call::GetFmuState, |inst| unsafe { store(FMUstate, inst.save()) })
+    guard(c, Call::GetFmuState, |inst| unsafe {
+        store(FMUstate, inst.save())
+    })
 }
 const _: sys::fmi2GetFMUstateTYPE = Some(fmi2GetFMUstate);
 
@@ -491,7 +553,10 @@ const _: sys::fmi2SetFMUstateTYPE = Some(fmi2SetFMUstate);
 
 /// Frees a copied state and nulls the caller's pointer.
 #[no_mangle]
-pub unsafe extern "C" fn fmi2FreeFMUstate(c: fmi2Component, FMUstate: *mut fmi2FMUstate) -> fmi2Status {
+pub unsafe extern "C" fn fmi2FreeFMUstate(
+    c: fmi2Component,
+    FMUstate: *mut fmi2FMUstate,
+) -> fmi2Status {
     guard(c, Call::FreeFmuState, |_| {
         // SAFETY: FMUstate points to a slot holding null or a state of ours.
         let slot = unsafe { out(FMUstate, "FMUstate") }?;
@@ -536,10 +601,14 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
         // SAFETY: FMUstate is a state of ours.
         let bytes = unsafe { saved(FMUstate) }?.serialize();
         if size < bytes.len() {
-            return Err(error(format!("buffer of {size} bytes is too small: the state needs {}", bytes.len())));
+            return Err(error(format!(
+                "buffer of {size} bytes is too small: the state needs {}",
+                bytes.len()
+            )));
         }
         // SAFETY: the caller provides `size` writable bytes.
-        let buffer = unsafe { slice_mut(serializedState as *mut u8, bytes.len(), "serializedState") }?;
+        let buffer =
+            unsafe { slice_mut(serializedState as *mut u8, bytes.len(), "serializedState") }?;
         buffer.copy_from_slice(&bytes);
         Ok(Status::Ok)
     })
@@ -575,7 +644,9 @@ pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
     _dvKnown: *const fmi2Real,
     _dvUnknown: *mut fmi2Real,
 ) -> fmi2Status {
-    guard(c, Call::GetDirectionalDerivative, |_| not_supported("fmi2GetDirectionalDerivative"))
+    guard(c, Call::GetDirectionalDerivative, |_| {
+        not_supported("fmi2GetDirectionalDerivative")
+    })
 }
 const _: sys::fmi2GetDirectionalDerivativeTYPE = Some(fmi2GetDirectionalDerivative);
 
@@ -593,8 +664,13 @@ pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
 ) -> fmi2Status {
     guard(c, Call::SetRealInputDerivatives, |inst| {
         // SAFETY: the importer passes nvr value references, orders and values.
-        let (vrs, orders, values) =
-            unsafe { (slice(vr, nvr, "vr")?, slice(order, nvr, "order")?, slice(value, nvr, "value")?) };
+        let (vrs, orders, values) = unsafe {
+            (
+                slice(vr, nvr, "vr")?,
+                slice(order, nvr, "order")?,
+                slice(value, nvr, "value")?,
+            )
+        };
         inst.set_input_derivatives(vrs, orders, values)
     })
 }
@@ -609,7 +685,9 @@ pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
     _order: *const sys::fmi2Integer,
     _value: *mut fmi2Real,
 ) -> fmi2Status {
-    guard(c, Call::GetRealOutputDerivatives, |_| not_supported("fmi2GetRealOutputDerivatives"))
+    guard(c, Call::GetRealOutputDerivatives, |_| {
+        not_supported("fmi2GetRealOutputDerivatives")
+    })
 }
 const _: sys::fmi2GetRealOutputDerivativesTYPE = Some(fmi2GetRealOutputDerivatives);
 
@@ -621,7 +699,9 @@ pub unsafe extern "C" fn fmi2DoStep(
     communicationStepSize: fmi2Real,
     _noSetFMUStatePriorToCurrentPoint: fmi2Boolean,
 ) -> fmi2Status {
-    guard(c, Call::DoStep, |inst| inst.do_step(currentCommunicationPoint, communicationStepSize))
+    guard(c, Call::DoStep, |inst| {
+        inst.do_step(currentCommunicationPoint, communicationStepSize)
+    })
 }
 const _: sys::fmi2DoStepTYPE = Some(fmi2DoStep);
 
@@ -634,7 +714,11 @@ const _: sys::fmi2CancelStepTYPE = Some(fmi2CancelStep);
 
 /// fmi2DoStepStatus and fmi2PendingStatus are not available (steps are synchronous).
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetStatus(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Status) -> fmi2Status {
+pub unsafe extern "C" fn fmi2GetStatus(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Status,
+) -> fmi2Status {
     guard(c, Call::GetStatus, |_| {
         // SAFETY: value is writable.
         unsafe { out(value, "value") }?;
@@ -645,10 +729,17 @@ const _: sys::fmi2GetStatusTYPE = Some(fmi2GetStatus);
 
 /// fmi2LastSuccessfulTime: the FMU's time [s].
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetRealStatus(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Real) -> fmi2Status {
+pub unsafe extern "C" fn fmi2GetRealStatus(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Real,
+) -> fmi2Status {
     guard(c, Call::GetRealStatus, |inst| {
         if s != sys::fmi2StatusKind_fmi2LastSuccessfulTime {
-            return Instance::status_not_available(&format!("{} of fmi2GetRealStatus", kind_name(s)));
+            return Instance::status_not_available(&format!(
+                "{} of fmi2GetRealStatus",
+                kind_name(s)
+            ));
         }
         // SAFETY: value is writable.
         *unsafe { out(value, "value") }? = inst.last_successful_time();
@@ -664,16 +755,25 @@ pub unsafe extern "C" fn fmi2GetIntegerStatus(
     s: fmi2StatusKind,
     _value: *mut sys::fmi2Integer,
 ) -> fmi2Status {
-    guard(c, Call::GetIntegerStatus, |_| Instance::status_not_available(&format!("{} of fmi2GetIntegerStatus", kind_name(s))))
+    guard(c, Call::GetIntegerStatus, |_| {
+        Instance::status_not_available(&format!("{} of fmi2GetIntegerStatus", kind_name(s)))
+    })
 }
 const _: sys::fmi2GetIntegerStatusTYPE = Some(fmi2GetIntegerStatus);
 
 /// fmi2Terminated: false (the FMU never asks to stop).
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetBooleanStatus(c: fmi2Component, s: fmi2StatusKind, value: *mut fmi2Boolean) -> fmi2Status {
+pub unsafe extern "C" fn fmi2GetBooleanStatus(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    value: *mut fmi2Boolean,
+) -> fmi2Status {
     guard(c, Call::GetBooleanStatus, |_| {
         if s != sys::fmi2StatusKind_fmi2Terminated {
-            return Instance::status_not_available(&format!("{} of fmi2GetBooleanStatus", kind_name(s)));
+            return Instance::status_not_available(&format!(
+                "{} of fmi2GetBooleanStatus",
+                kind_name(s)
+            ));
         }
         // SAFETY: value is writable.
         *unsafe { out(value, "value") }? = sys::fmi2False as c_int;
@@ -684,8 +784,13 @@ const _: sys::fmi2GetBooleanStatusTYPE = Some(fmi2GetBooleanStatus);
 
 /// fmi2PendingStatus is not available (steps are synchronous).
 #[no_mangle]
-pub unsafe extern "C" fn fmi2GetStringStatus(c: fmi2Component, s: fmi2StatusKind, _value: *mut fmi2String) -> fmi2Status {
-    guard(c, Call::GetStringStatus, |_| Instance::status_not_available(&format!("{} of fmi2GetStringStatus", kind_name(s))))
+pub unsafe extern "C" fn fmi2GetStringStatus(
+    c: fmi2Component,
+    s: fmi2StatusKind,
+    _value: *mut fmi2String,
+) -> fmi2Status {
+    guard(c, Call::GetStringStatus, |_| {
+        Instance::status_not_available(&format!("{} of fmi2GetStringStatus", kind_name(s)))
+    })
 }
 const _: sys::fmi2GetStringStatusTYPE = Some(fmi2GetStringStatus);
-

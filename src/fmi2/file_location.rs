@@ -24,7 +24,8 @@ impl Os {
 
 /// Whether `text` is a `file:` URI (the scheme is case-insensitive).
 pub fn is_file_uri(text: &str) -> bool {
-    text.get(..5).is_some_and(|scheme| scheme.eq_ignore_ascii_case("file:"))
+    text.get(..5)
+        .is_some_and(|scheme| scheme.eq_ignore_ascii_case("file:"))
 }
 
 /// The local path of the `file:` URI `uri`, percent-decoded, following `os`'s rules.
@@ -56,8 +57,16 @@ pub fn file_uri_to_path(uri: &str, os: Os) -> Result<PathBuf, String> {
             }
             // "/C:/x" or "/C|/x" (an old form) is the drive path "C:\x".
             let bytes = backslashed.as_bytes();
-            if bytes.len() >= 3 && bytes[0] == b'\\' && bytes[1].is_ascii_alphabetic() && matches!(bytes[2], b':' | b'|') {
-                Ok(PathBuf::from(format!("{}:{}", bytes[1] as char, &backslashed[3..])))
+            if bytes.len() >= 3
+                && bytes[0] == b'\\'
+                && bytes[1].is_ascii_alphabetic()
+                && matches!(bytes[2], b':' | b'|')
+            {
+                Ok(PathBuf::from(format!(
+                    "{}:{}",
+                    bytes[1] as char,
+                    &backslashed[3..]
+                )))
             } else {
                 Err(format!("\"{uri}\" has no drive letter or UNC host"))
             }
@@ -99,34 +108,67 @@ mod tests {
             "file:/C:/Program%20Files/AEM/resources",
             "file:///C|/Program%20Files/AEM/resources",
         ] {
-            assert_eq!(windows(uri).as_deref(), Ok("C:\\Program Files\\AEM\\resources"), "{uri}");
+            assert_eq!(
+                windows(uri).as_deref(),
+                Ok("C:\\Program Files\\AEM\\resources"),
+                "{uri}"
+            );
         }
-        assert_eq!(windows("file://server/share/a%C3%A9.json").as_deref(), Ok("\\\\server\\share\\aé.json"));
-        assert!(windows("file:///no-drive/x").unwrap_err().contains("no drive letter"));
+        assert_eq!(
+            windows("file://server/share/a%C3%A9.json").as_deref(),
+            Ok("\\\\server\\share\\aé.json")
+        );
+        assert!(windows("file:///no-drive/x")
+            .unwrap_err()
+            .contains("no drive letter"));
     }
 
     #[test]
     fn unix_uris_are_local_absolute_paths() {
         let unix = |uri: &str| file_uri_to_path(uri, Os::Unix);
-        assert_eq!(unix("file:///tmp/a%20b/resources"), Ok(PathBuf::from("/tmp/a b/resources")));
+        assert_eq!(
+            unix("file:///tmp/a%20b/resources"),
+            Ok(PathBuf::from("/tmp/a b/resources"))
+        );
         assert_eq!(unix("file://localhost/tmp/x"), Ok(PathBuf::from("/tmp/x")));
         assert_eq!(unix("file:/tmp/x"), Ok(PathBuf::from("/tmp/x")));
-        assert!(unix("file://server/tmp/x").unwrap_err().contains("not a local file"));
-        assert!(unix("file:relative").unwrap_err().contains("no absolute path"));
+        assert!(unix("file://server/tmp/x")
+            .unwrap_err()
+            .contains("not a local file"));
+        assert!(unix("file:relative")
+            .unwrap_err()
+            .contains("no absolute path"));
         assert!(unix("file:///%FF").unwrap_err().contains("not UTF-8"));
         assert!(unix("/tmp/x").unwrap_err().contains("not a file: URI"));
     }
 
     #[test]
     fn a_relative_parameter_file_is_found_in_the_resources_first() {
-        let resources = std::env::temp_dir().join(format!("aem-file-location-{}", std::process::id()));
+        let resources =
+            std::env::temp_dir().join(format!("aem-file-location-{}", std::process::id()));
         std::fs::create_dir_all(&resources).unwrap();
         std::fs::write(resources.join("modules.json"), "{}").unwrap();
-        assert_eq!(locate("modules.json", Some(&resources), Os::HERE), Ok(resources.join("modules.json")));
-        assert_eq!(locate("other.json", Some(&resources), Os::HERE), Ok(PathBuf::from("other.json")));
-        assert_eq!(locate("modules.json", None, Os::HERE), Ok(PathBuf::from("modules.json")));
+        assert_eq!(
+            locate("modules.json", Some(&resources), Os::HERE),
+            Ok(resources.join("modules.json"))
+        );
+        assert_eq!(
+            locate("other.json", Some(&resources), Os::HERE),
+            Ok(PathBuf::from("other.json"))
+        );
+        assert_eq!(
+            locate("modules.json", None, Os::HERE),
+            Ok(PathBuf::from("modules.json"))
+        );
         let absolute = resources.join("modules.json");
-        assert_eq!(locate(absolute.to_str().unwrap(), Some(Path::new("/elsewhere")), Os::HERE), Ok(absolute.clone()));
+        assert_eq!(
+            locate(
+                absolute.to_str().unwrap(),
+                Some(Path::new("/elsewhere")),
+                Os::HERE
+            ),
+            Ok(absolute.clone())
+        );
         std::fs::remove_dir_all(&resources).unwrap();
     }
 }

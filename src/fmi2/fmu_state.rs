@@ -9,10 +9,13 @@
 //! magic, version, length, checksum, GUID, enum codes, finiteness and the plant's
 //! consistency with its settings are all checked.
 
+use crate::model_description::GUID;
 use aem_model::hub::{Group, HubSnapshot, HubTotals};
 use aem_model::operation::UnitState;
-use aem_model::{CurrentState, FastReserve, ModuleState, OperatingState, Parameters, PlantSettings, PlantSnapshot, ReserveSettings};
-use crate::model_description::GUID;
+use aem_model::{
+    CurrentState, FastReserve, ModuleState, OperatingState, Parameters, PlantSettings,
+    PlantSnapshot, ReserveSettings,
+};
 
 use super::state_machine::FmiState;
 use super::variables::Inputs;
@@ -108,7 +111,8 @@ impl SavedState {
     /// # Safety
     /// `ptr` must be non-null and point to at least `size_of::<SavedState>()` readable bytes.
     pub unsafe fn has_magic(ptr: *const SavedState) -> bool {
-        ptr.is_aligned() && unsafe { std::ptr::addr_of!((*ptr).magic).read_unaligned() } == SAVED_MAGIC
+        ptr.is_aligned()
+            && unsafe { std::ptr::addr_of!((*ptr).magic).read_unaligned() } == SAVED_MAGIC
     }
 
     /// Marks the memory as no longer a state, just before it is freed.
@@ -145,7 +149,15 @@ impl SavedState {
             w.f64(x);
         }
         let r = &s.reserve;
-        for x in [r.fcr_n, r.fcr_d_up, r.fcr_d_down, r.fcr, r.ffr, r.ffr_trigger, r.ffr_duration] {
+        for x in [
+            r.fcr_n,
+            r.fcr_d_up,
+            r.fcr_d_down,
+            r.fcr,
+            r.ffr,
+            r.ffr_trigger,
+            r.ffr_duration,
+        ] {
             w.f64(x);
         }
         w.u8(r.compensation as u8);
@@ -182,7 +194,14 @@ impl SavedState {
             None => w.u8(PLANT_NONE),
             Some(PlantSnapshot::Module(m)) => {
                 w.u8(PLANT_MODULE);
-                for x in [m.time, m.current.z1, m.current.z2, m.current.current, m.energy, m.h2_produced] {
+                for x in [
+                    m.time,
+                    m.current.z1,
+                    m.current.z2,
+                    m.current.current,
+                    m.energy,
+                    m.h2_produced,
+                ] {
                     w.f64(x);
                 }
             }
@@ -194,7 +213,13 @@ impl SavedState {
                     w.u32(g.kind);
                     w.u8(g.active as u8);
                     w.u8(g.unit.state.code() as u8);
-                    for x in [g.unit.timer, g.unit.current.z1, g.unit.current.z2, g.unit.current.current, g.running] {
+                    for x in [
+                        g.unit.timer,
+                        g.unit.current.z1,
+                        g.unit.current.z2,
+                        g.unit.current.current,
+                        g.running,
+                    ] {
                         w.f64(x);
                     }
                     w.u64(g.starts);
@@ -230,22 +255,38 @@ impl SavedState {
         }
         let len = r.u32()? as usize;
         if bytes.len() != 16 + len + 4 {
-            return Err(format!("serialised state is {} bytes; its header announces {}", bytes.len(), 16 + len + 4));
+            return Err(format!(
+                "serialised state is {} bytes; its header announces {}",
+                bytes.len(),
+                16 + len + 4
+            ));
         }
-        let crc = u32::from_le_bytes(bytes[16 + len..].try_into().map_err(|_| "truncated checksum")?);
+        let crc = u32::from_le_bytes(
+            bytes[16 + len..]
+                .try_into()
+                .map_err(|_| "truncated checksum")?,
+        );
         if crc != crc32fast::hash(&bytes[..16 + len]) {
             return Err("serialised state is corrupt (checksum mismatch)".into());
         }
         r.bytes = &bytes[..16 + len];
         let guid_len = r.u32()? as usize;
         if r.take(guid_len)? != GUID.as_bytes() {
-            return Err(format!("serialised state belongs to another model (GUID differs from {GUID})"));
+            return Err(format!(
+                "serialised state belongs to another model (GUID differs from {GUID})"
+            ));
         }
-        let fmi_state = FmiState::from_code(r.u8()?).ok_or("serialised state has an unknown FMI state")?;
+        let fmi_state =
+            FmiState::from_code(r.u8()?).ok_or("serialised state has an unknown FMI state")?;
         let excursion = r.flag()?;
         let has_stop = r.flag()?;
         let params = read_parameters(&mut r)?;
-        let (n_modules, dispatch, below_minimum, spread_seed) = (r.u32()? as i32, r.u32()? as i32, r.u32()? as i32, r.u32()? as i32);
+        let (n_modules, dispatch, below_minimum, spread_seed) = (
+            r.u32()? as i32,
+            r.u32()? as i32,
+            r.u32()? as i32,
+            r.u32()? as i32,
+        );
         let power_input = r.flag()?;
         let mut x = [0.0; 8];
         for v in x.iter_mut() {
@@ -276,14 +317,22 @@ impl SavedState {
                 compensation: r.flag()?,
             },
         };
-        let inputs = Inputs { setpoint: r.finite()?, power_reference: r.finite()?, frequency: r.finite()? };
+        let inputs = Inputs {
+            setpoint: r.finite()?,
+            power_reference: r.finite()?,
+            frequency: r.finite()?,
+        };
         let (setpoint_slope, time, stop) = (r.finite()?, r.finite()?, r.finite()?);
         let path_len = r.u32()? as usize;
-        let module_parameter_file =
-            String::from_utf8(r.take(path_len)?.to_vec()).map_err(|_| "serialised state holds a file name that is not UTF-8")?;
+        let module_parameter_file = String::from_utf8(r.take(path_len)?.to_vec())
+            .map_err(|_| "serialised state holds a file name that is not UTF-8")?;
         let has_sets = r.flag()?;
         let set_count = r.u32()? as usize;
-        if set_count.checked_mul(8 * 11).is_none_or(|b| b > r.bytes.len() - r.pos) || (!has_sets && set_count > 0) {
+        if set_count
+            .checked_mul(8 * 11)
+            .is_none_or(|b| b > r.bytes.len() - r.pos)
+            || (!has_sets && set_count > 0)
+        {
             return Err("serialised state is truncated (parameter sets)".into());
         }
         let mut sets = Vec::with_capacity(set_count);
@@ -298,7 +347,11 @@ impl SavedState {
             2 => FastReserve::Spent,
             other => return Err(format!("serialised state has an unknown FFR state {other}")),
         };
-        let reserve = ReserveState { fast, shortfall: r.flag()?, increase: r.flag()? };
+        let reserve = ReserveState {
+            fast,
+            shortfall: r.flag()?,
+            increase: r.flag()?,
+        };
         let plant = match r.u8()? {
             PLANT_NONE => None,
             PLANT_MODULE => {
@@ -306,20 +359,36 @@ impl SavedState {
                 for v in m.iter_mut() {
                     *v = r.finite()?;
                 }
-                let current = CurrentState { z1: m[1], z2: m[2], current: m[3] };
-                Some(PlantSnapshot::Module(ModuleState { time: m[0], current, energy: m[4], h2_produced: m[5] }))
+                let current = CurrentState {
+                    z1: m[1],
+                    z2: m[2],
+                    current: m[3],
+                };
+                Some(PlantSnapshot::Module(ModuleState {
+                    time: m[0],
+                    current,
+                    energy: m[4],
+                    h2_produced: m[5],
+                }))
             }
             PLANT_HUB => Some(PlantSnapshot::Hub(read_hub(&mut r)?)),
-            other => return Err(format!("serialised state has an unknown plant kind {other}")),
+            other => {
+                return Err(format!(
+                    "serialised state has an unknown plant kind {other}"
+                ))
+            }
         };
         if r.pos != r.bytes.len() {
             return Err("serialised state has trailing bytes".into());
         }
         if plant.is_some() {
             for p in std::iter::once(&params).chain(module_sets.iter().flatten()) {
-                p.validate().map_err(|e| format!("serialised state holds invalid parameters: {e}"))?;
+                p.validate()
+                    .map_err(|e| format!("serialised state holds invalid parameters: {e}"))?;
             }
-            settings.config().map_err(|e| format!("serialised state holds invalid settings: {e}"))?;
+            settings
+                .config()
+                .map_err(|e| format!("serialised state holds invalid settings: {e}"))?;
         }
         let stop_time = has_stop.then_some(stop);
         Ok(SavedState::new(
@@ -381,7 +450,9 @@ fn read_parameters(r: &mut Reader) -> Result<Parameters, String> {
 fn read_hub(r: &mut Reader) -> Result<HubSnapshot, String> {
     const GROUP_BYTES: usize = 4 + 4 + 1 + 1 + 5 * 8 + 8;
     let n = r.u32()? as usize;
-    if n.checked_mul(GROUP_BYTES).is_none_or(|b| b > r.bytes.len() - r.pos) {
+    if n.checked_mul(GROUP_BYTES)
+        .is_none_or(|b| b > r.bytes.len() - r.pos)
+    {
         return Err("serialised state is truncated (hub groups)".into());
     }
     let mut groups = Vec::with_capacity(n);
@@ -392,14 +463,43 @@ fn read_hub(r: &mut Reader) -> Result<HubSnapshot, String> {
         let state = OperatingState::ALL
             .into_iter()
             .find(|s| s.code() == code as i32)
-            .ok_or(format!("serialised state has an unknown operating state {code}"))?;
-        let (timer, z1, z2, current, running) = (r.finite()?, r.finite()?, r.finite()?, r.finite()?, r.finite()?);
+            .ok_or(format!(
+                "serialised state has an unknown operating state {code}"
+            ))?;
+        let (timer, z1, z2, current, running) = (
+            r.finite()?,
+            r.finite()?,
+            r.finite()?,
+            r.finite()?,
+            r.finite()?,
+        );
         let starts = r.u64()?;
-        groups.push(Group { count, kind, active, unit: UnitState { state, timer, current: CurrentState { z1, z2, current } }, running, starts });
+        groups.push(Group {
+            count,
+            kind,
+            active,
+            unit: UnitState {
+                state,
+                timer,
+                current: CurrentState { z1, z2, current },
+            },
+            running,
+            starts,
+        });
     }
     let running_target = r.u32()?;
-    let totals = HubTotals { time: r.finite()?, energy: r.finite()?, h2_produced: r.finite()?, running: r.finite()?, starts: r.u64()? };
-    Ok(HubSnapshot { groups, running_target, totals })
+    let totals = HubTotals {
+        time: r.finite()?,
+        energy: r.finite()?,
+        h2_produced: r.finite()?,
+        running: r.finite()?,
+        starts: r.u64()?,
+    };
+    Ok(HubSnapshot {
+        groups,
+        running_target,
+        totals,
+    })
 }
 
 struct Writer(Vec<u8>);
@@ -429,7 +529,11 @@ struct Reader<'a> {
 
 impl<'a> Reader<'a> {
     fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
-        let end = self.pos.checked_add(n).filter(|e| *e <= self.bytes.len()).ok_or("serialised state is truncated")?;
+        let end = self
+            .pos
+            .checked_add(n)
+            .filter(|e| *e <= self.bytes.len())
+            .ok_or("serialised state is truncated")?;
         let slice = &self.bytes[self.pos..end];
         self.pos = end;
         Ok(slice)
@@ -461,7 +565,10 @@ impl<'a> Reader<'a> {
         if x.is_finite() {
             Ok(x)
         } else {
-            Err(format!("serialised state holds a non-finite value at byte {}", self.pos - 8))
+            Err(format!(
+                "serialised state holds a non-finite value at byte {}",
+                self.pos - 8
+            ))
         }
     }
 }
@@ -471,40 +578,113 @@ mod tests {
     use super::*;
 
     /// FFR active until 130 s, a shortfall logged.
-    const RESERVE: ReserveState = ReserveState { fast: FastReserve::Active { until: 130.0 }, shortfall: true, increase: false };
+    const RESERVE: ReserveState = ReserveState {
+        fast: FastReserve::Active { until: 130.0 },
+        shortfall: true,
+        increase: false,
+    };
 
     fn sample() -> SavedState {
         let module = ModuleState {
             time: 12.5,
-            current: CurrentState { z1: 40.0, z2: 38.5, current: 39.25 },
+            current: CurrentState {
+                z1: 40.0,
+                z2: 38.5,
+                current: 39.25,
+            },
             energy: 1.0e6,
             h2_produced: 33.0,
         };
-        let inputs = Inputs { setpoint: 73.0, power_reference: 1.5e6, frequency: 49.8 };
+        let inputs = Inputs {
+            setpoint: 73.0,
+            power_reference: 1.5e6,
+            frequency: 49.8,
+        };
         let plant = Some(PlantSnapshot::Module(module));
         let settings = PlantSettings::default();
-        SavedState::new(FmiState::StepComplete, Parameters::default(), settings, inputs, -0.25, false, 112.5, Some(3600.0), String::new(), None, RESERVE, plant)
+        SavedState::new(
+            FmiState::StepComplete,
+            Parameters::default(),
+            settings,
+            inputs,
+            -0.25,
+            false,
+            112.5,
+            Some(3600.0),
+            String::new(),
+            None,
+            RESERVE,
+            plant,
+        )
     }
 
     fn hub_sample() -> SavedState {
-        let reserve = aem_model::ReserveSettings { fcr_d_up: 5_000.0, ffr: 2_000.0, compensation: true, ..Default::default() };
-        let settings = PlantSettings { n_modules: 10, dispatch: 2, below_minimum: 1, power_input: true, reserve, ..PlantSettings::default() };
+        let reserve = aem_model::ReserveSettings {
+            fcr_d_up: 5_000.0,
+            ffr: 2_000.0,
+            compensation: true,
+            ..Default::default()
+        };
+        let settings = PlantSettings {
+            n_modules: 10,
+            dispatch: 2,
+            below_minimum: 1,
+            power_input: true,
+            reserve,
+            ..PlantSettings::default()
+        };
         let config = settings.config().unwrap();
-        let sets = vec![Parameters::default(), Parameters { gain: 0.5, ..Parameters::default() }];
-        let mut plant = aem_model::Plant::new(Parameters::default(), &config, Some(&sets), 0.0, 12_000.0).unwrap();
+        let sets = vec![
+            Parameters::default(),
+            Parameters {
+                gain: 0.5,
+                ..Parameters::default()
+            },
+        ];
+        let mut plant =
+            aem_model::Plant::new(Parameters::default(), &config, Some(&sets), 0.0, 12_000.0)
+                .unwrap();
         for k in 0..400 {
-            plant.step(&config, 0.0, 0.0, if k < 100 { 3_000.0 } else { 20_000.0 }, 1.0).unwrap();
+            plant
+                .step(
+                    &config,
+                    0.0,
+                    0.0,
+                    if k < 100 { 3_000.0 } else { 20_000.0 },
+                    1.0,
+                )
+                .unwrap();
         }
-        let inputs = Inputs { setpoint: 0.0, power_reference: 20_000.0, frequency: 50.0 };
+        let inputs = Inputs {
+            setpoint: 0.0,
+            power_reference: 20_000.0,
+            frequency: 50.0,
+        };
         let file = "/data/params.json".to_string();
-        SavedState::new(FmiState::StepComplete, Parameters::default(), settings, inputs, 0.0, false, 400.0, None, file, Some(sets), RESERVE, Some(plant.snapshot()))
+        SavedState::new(
+            FmiState::StepComplete,
+            Parameters::default(),
+            settings,
+            inputs,
+            0.0,
+            false,
+            400.0,
+            None,
+            file,
+            Some(sets),
+            RESERVE,
+            Some(plant.snapshot()),
+        )
     }
 
     #[test]
     fn a_hub_round_trips_exactly() {
         let s = hub_sample();
         match &s.plant {
-            Some(PlantSnapshot::Hub(h)) => assert!(h.groups.len() >= 2, "a sequential hub mid-start has several groups"),
+            Some(PlantSnapshot::Hub(h)) => assert!(
+                h.groups.len() >= 2,
+                "a sequential hub mid-start has several groups"
+            ),
             _ => panic!("not a hub"),
         }
         assert_eq!(SavedState::deserialize(&s.serialize()), Ok(s));
@@ -528,10 +708,16 @@ mod tests {
         for i in 0..bytes.len() {
             let mut b = bytes.clone();
             b[i] ^= 0x5a;
-            assert!(SavedState::deserialize(&b).is_err(), "flipped byte {i} accepted");
+            assert!(
+                SavedState::deserialize(&b).is_err(),
+                "flipped byte {i} accepted"
+            );
         }
         for n in 0..bytes.len() {
-            assert!(SavedState::deserialize(&bytes[..n]).is_err(), "truncated to {n} accepted");
+            assert!(
+                SavedState::deserialize(&bytes[..n]).is_err(),
+                "truncated to {n} accepted"
+            );
         }
         let mut longer = bytes.clone();
         longer.push(0);

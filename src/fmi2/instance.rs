@@ -7,9 +7,13 @@
 use std::ffi::{c_char, CString};
 use std::path::PathBuf;
 
+use crate::model_description::{
+    BooleanVariable, Causality, IntegerVariable, RealVariable, StringVariable,
+};
 use aem_model::parameter_file::ParameterFile;
-use aem_model::{shown, FrequencyResponse, Parameters, Plant, PlantConfig, PlantSettings, ReserveStep};
-use crate::model_description::{BooleanVariable, Causality, IntegerVariable, RealVariable, StringVariable};
+use aem_model::{
+    shown, FrequencyResponse, Parameters, Plant, PlantConfig, PlantSettings, ReserveStep,
+};
 
 use super::file_location::{locate, Os};
 use super::fmu_state::{ReserveState, SavedState};
@@ -17,8 +21,8 @@ use super::logger::{Logger, LOG_EVENTS};
 use super::state_machine::FmiState;
 use super::status::{discard, error, CallResult, Status};
 use super::variables::{
-    boolean_parameter_mut, integer_output, integer_parameter_mut, item_name, real_input_mut, real_output,
-    real_parameter_mut, start_values, string_parameter_mut, Inputs,
+    boolean_parameter_mut, integer_output, integer_parameter_mut, item_name, real_input_mut,
+    real_output, real_parameter_mut, start_values, string_parameter_mut, Inputs,
 };
 
 /// Relative tolerance when comparing a master's communication point with the FMU's time;
@@ -35,7 +39,13 @@ fn watts(x: f64) -> String {
         a if a >= 1e3 => (x / 1e3, "kW"),
         _ => (x, "W"),
     };
-    let decimals = if value.abs() >= 100.0 { 1 } else if value.abs() >= 10.0 { 2 } else { 3 };
+    let decimals = if value.abs() >= 100.0 {
+        1
+    } else if value.abs() >= 10.0 {
+        2
+    } else {
+        3
+    };
     format!("{value:.decimals$} {unit}")
 }
 
@@ -115,7 +125,8 @@ impl Instance {
     /// # Safety
     /// `ptr` must be non-null and point to at least `size_of::<Instance>()` readable bytes.
     pub unsafe fn has_magic(ptr: *const Instance) -> bool {
-        ptr.is_aligned() && unsafe { std::ptr::addr_of!((*ptr).magic).read_unaligned() } == INSTANCE_MAGIC
+        ptr.is_aligned()
+            && unsafe { std::ptr::addr_of!((*ptr).magic).read_unaligned() } == INSTANCE_MAGIC
     }
 
     /// Marks the memory as no longer an instance, just before it is freed.
@@ -127,11 +138,18 @@ impl Instance {
     /// (FMI 2.0, section 2.1.6). The tolerance is not needed: the integration is exact.
     pub fn setup_experiment(&mut self, start_time: f64, stop_time: Option<f64>) -> CallResult {
         if !start_time.is_finite() {
-            return Err(error(format!("startTime = {} s is not a finite number", shown(start_time))));
+            return Err(error(format!(
+                "startTime = {} s is not a finite number",
+                shown(start_time)
+            )));
         }
         if let Some(stop) = stop_time {
             if !(stop >= start_time) {
-                return Err(error(format!("stopTime = {} s is before startTime = {} s", shown(stop), shown(start_time))));
+                return Err(error(format!(
+                    "stopTime = {} s is before startTime = {} s",
+                    shown(stop),
+                    shown(start_time)
+                )));
             }
         }
         self.time = start_time;
@@ -153,7 +171,8 @@ impl Instance {
         if value.is_empty() {
             return Ok(None);
         }
-        let path = locate(value, self.resources.as_deref(), Os::HERE).map_err(|e| format!("moduleParameterFile: {e}"))?;
+        let path = locate(value, self.resources.as_deref(), Os::HERE)
+            .map_err(|e| format!("moduleParameterFile: {e}"))?;
         let file = ParameterFile::load(&path).map_err(|e| match &self.resources {
             Some(resources) if path.is_relative() => {
                 format!("moduleParameterFile: {e} (looked for in the resources folder {} and in the working directory)", resources.display())
@@ -164,7 +183,10 @@ impl Instance {
         let sets = file
             .modules
             .iter()
-            .map(|m| m.parameters_over(self.params).map_err(|e| format!("moduleParameterFile {path}, module {}: {e}", m.module)))
+            .map(|m| {
+                m.parameters_over(self.params)
+                    .map_err(|e| format!("moduleParameterFile {path}, module {}: {e}", m.module))
+            })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(Some(sets))
     }
@@ -176,14 +198,24 @@ impl Instance {
         let sets = self.read_module_sets()?;
         let request = config.reserve.proportional(self.inputs.frequency);
         let (setpoint, power) = (self.inputs.setpoint, self.inputs.power_reference);
-        let plant = Plant::with_request(self.params, &config, sets.as_deref(), setpoint, power, request).map_err(|e| e.to_string())?;
+        let plant = Plant::with_request(
+            self.params,
+            &config,
+            sets.as_deref(),
+            setpoint,
+            power,
+            request,
+        )
+        .map_err(|e| e.to_string())?;
         Ok((config, plant, sets))
     }
 
     /// fmi2ExitInitializationMode: validates the parameters and settings and starts the
     /// module or hub in steady state for the current inputs.
     pub fn exit_initialization_mode(&mut self) -> CallResult {
-        let (config, plant, sets) = self.build_plant().map_err(|e| error(format!("initialisation refused: {e}")))?;
+        let (config, plant, sets) = self
+            .build_plant()
+            .map_err(|e| error(format!("initialisation refused: {e}")))?;
         let policy = format!(
             "dispatch {}, belowMinimum {}",
             item_name(IntegerVariable::Dispatch, self.settings.dispatch),
@@ -191,7 +223,11 @@ impl Instance {
         );
         let what = match (&plant, &sets) {
             (Plant::Module(_), _) => "one module".to_string(),
-            (_, Some(sets)) => format!("a hub of {} modules ({policy}) with {} parameter sets", config.hub.n_modules, sets.len()),
+            (_, Some(sets)) => format!(
+                "a hub of {} modules ({policy}) with {} parameter sets",
+                config.hub.n_modules,
+                sets.len()
+            ),
             _ => format!("a hub of {} modules ({policy})", config.hub.n_modules),
         };
         self.logger.info(
@@ -212,7 +248,11 @@ impl Instance {
         self.plant = Some((config, plant));
         self.state = FmiState::StepComplete;
         let window = self.update_excursion();
-        let status = if capacity_warned { Status::Warning } else { window };
+        let status = if capacity_warned {
+            Status::Warning
+        } else {
+            window
+        };
         if slope_dropped {
             // Set while the settings still described a single module.
             self.logger.warning(&format!(
@@ -231,11 +271,24 @@ impl Instance {
         let r = &config.reserve;
         let (setpoint, power) = (self.inputs.setpoint, self.inputs.power_reference);
         let mut warned = false;
-        let down = [("fcrNCapacity", r.fcr_n), ("fcrDUpCapacity", r.fcr_d_up), ("fcrCapacity", r.fcr), ("ffrCapacity", r.ffr)];
-        let up = [("fcrNCapacity", r.fcr_n), ("fcrDDownCapacity", r.fcr_d_down), ("fcrCapacity", r.fcr)];
+        let down = [
+            ("fcrNCapacity", r.fcr_n),
+            ("fcrDUpCapacity", r.fcr_d_up),
+            ("fcrCapacity", r.fcr),
+            ("ffrCapacity", r.ffr),
+        ];
+        let up = [
+            ("fcrNCapacity", r.fcr_n),
+            ("fcrDDownCapacity", r.fcr_d_down),
+            ("fcrCapacity", r.fcr),
+        ];
         for (products, sign, direction) in [(&down[..], -1.0, "less"), (&up[..], 1.0, "more")] {
             let offered: f64 = products.iter().map(|(_, c)| c).sum();
-            let names: Vec<&str> = products.iter().filter(|(_, c)| *c > 0.0).map(|(n, _)| *n).collect();
+            let names: Vec<&str> = products
+                .iter()
+                .filter(|(_, c)| *c > 0.0)
+                .map(|(n, _)| *n)
+                .collect();
             if offered <= 0.0 {
                 continue;
             }
@@ -291,7 +344,13 @@ impl Instance {
             status = Status::Warning;
         }
         if !short && self.reserve_shortfall {
-            self.logger.info(LOG_EVENTS, &format!("frequency = {} Hz: the reserve request fits the operating window again", self.inputs.frequency));
+            self.logger.info(
+                LOG_EVENTS,
+                &format!(
+                    "frequency = {} Hz: the reserve request fits the operating window again",
+                    self.inputs.frequency
+                ),
+            );
         }
         self.reserve_shortfall = short;
         let increase = step.request > 0.0;
@@ -317,7 +376,10 @@ impl Instance {
 
     /// fmi2Reset: back to the state after fmi2Instantiate.
     pub fn reset(&mut self) -> CallResult {
-        let mut logger = std::mem::replace(&mut self.logger, Logger::new(None, std::ptr::null_mut(), Default::default(), false));
+        let mut logger = std::mem::replace(
+            &mut self.logger,
+            Logger::new(None, std::ptr::null_mut(), Default::default(), false),
+        );
         // As if fmi2Instantiate had been called again: debug logging as it was requested then.
         logger.restore_instantiation_logging();
         *self = Instance::new(logger, self.resources.take());
@@ -330,7 +392,10 @@ impl Instance {
     fn with_plant<T>(&self, name: &str, f: impl FnOnce(&Plant) -> T) -> Result<T, String> {
         match &self.plant {
             Some((_, plant)) => Ok(f(plant)),
-            None => self.build_plant().map(|(_, plant, _)| f(&plant)).map_err(|e| format!("{name} cannot be computed yet: {e}")),
+            None => self
+                .build_plant()
+                .map(|(_, plant, _)| f(&plant))
+                .map_err(|e| format!("{name} cannot be computed yet: {e}")),
         }
     }
 
@@ -338,7 +403,11 @@ impl Instance {
     fn real(&self, var: RealVariable) -> Result<f64, String> {
         let value = match var.causality() {
             Causality::Output => {
-                let request = if var == RealVariable::ReserveRequest { self.reserve_request() } else { 0.0 };
+                let request = if var == RealVariable::ReserveRequest {
+                    self.reserve_request()
+                } else {
+                    0.0
+                };
                 self.with_plant(var.name(), |plant| real_output(var, plant, request))?
             }
             Causality::Input => {
@@ -369,7 +438,9 @@ impl Instance {
             let mut settings = self.settings;
             let value = match var.causality() {
                 Causality::Parameter => integer_parameter_mut(&mut settings, var).map(|v| *v),
-                Causality::Output => self.with_plant(var.name(), |plant| integer_output(var, plant)).map_err(error)?,
+                Causality::Output => self
+                    .with_plant(var.name(), |plant| integer_output(var, plant))
+                    .map_err(error)?,
                 Causality::Input => None,
             };
             *out = value.ok_or_else(|| error(format!("{} has no value here", var.name())))?;
@@ -382,7 +453,9 @@ impl Instance {
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
             let var = known(*vr, BooleanVariable::from_value_reference, "Boolean")?;
             let mut settings = self.settings;
-            *out = boolean_parameter_mut(&mut settings, var).map(|v| *v).ok_or_else(|| error(format!("{} has no value here", var.name())))?;
+            *out = boolean_parameter_mut(&mut settings, var)
+                .map(|v| *v)
+                .ok_or_else(|| error(format!("{} has no value here", var.name())))?;
         }
         Ok(Status::Ok)
     }
@@ -390,7 +463,9 @@ impl Instance {
     /// Refuses setting a fixed parameter after initialisation.
     fn parameter_settable(&self, name: &str) -> Result<(), super::status::Failure> {
         if self.state == FmiState::StepComplete || self.state == FmiState::Terminated {
-            return Err(error(format!("{name} is a fixed parameter: it can only be set before fmi2ExitInitializationMode")));
+            return Err(error(format!(
+                "{name} is a fixed parameter: it can only be set before fmi2ExitInitializationMode"
+            )));
         }
         Ok(())
     }
@@ -401,7 +476,11 @@ impl Instance {
         for (vr, value) in vrs.iter().zip(values) {
             let var = known(*vr, RealVariable::from_value_reference, "Real")?;
             if !value.is_finite() {
-                return Err(error(format!("{} = {} refused: not a finite number", var.name(), shown(*value))));
+                return Err(error(format!(
+                    "{} = {} refused: not a finite number",
+                    var.name(),
+                    shown(*value)
+                )));
             }
             let field = match var.causality() {
                 Causality::Input => real_input_mut(&mut inputs, var),
@@ -409,7 +488,12 @@ impl Instance {
                     self.parameter_settable(var.name())?;
                     real_parameter_mut(&mut params, &mut settings, var)
                 }
-                Causality::Output => return Err(error(format!("{} is an output and cannot be set", var.name()))),
+                Causality::Output => {
+                    return Err(error(format!(
+                        "{} is an output and cannot be set",
+                        var.name()
+                    )))
+                }
             };
             if let Some(field) = field {
                 *field = *value;
@@ -432,7 +516,10 @@ impl Instance {
         for (vr, value) in vrs.iter().zip(values) {
             let var = known(*vr, IntegerVariable::from_value_reference, "Integer")?;
             if var.causality() != Causality::Parameter {
-                return Err(error(format!("{} is an output and cannot be set", var.name())));
+                return Err(error(format!(
+                    "{} is an output and cannot be set",
+                    var.name()
+                )));
             }
             self.parameter_settable(var.name())?;
             if let Some(field) = integer_parameter_mut(&mut settings, var) {
@@ -463,7 +550,9 @@ impl Instance {
         for vr in vrs {
             let var = known(*vr, StringVariable::from_value_reference, "String")?;
             let mut file = self.module_parameter_file.clone();
-            let value = string_parameter_mut(&mut file, var).map(|v| v.clone()).ok_or_else(|| error(format!("{} has no value here", var.name())))?;
+            let value = string_parameter_mut(&mut file, var)
+                .map(|v| v.clone())
+                .ok_or_else(|| error(format!("{} has no value here", var.name())))?;
             strings.push(super::logger::c_string(&value));
         }
         for (out, s) in values.iter_mut().zip(&strings) {
@@ -489,7 +578,12 @@ impl Instance {
 
     /// fmi2SetRealInputDerivatives: first derivatives of the input for the next step; all
     /// values are checked before any is applied.
-    pub fn set_input_derivatives(&mut self, vrs: &[u32], orders: &[i32], values: &[f64]) -> CallResult {
+    pub fn set_input_derivatives(
+        &mut self,
+        vrs: &[u32],
+        orders: &[i32],
+        values: &[f64],
+    ) -> CallResult {
         let single = self.single_module();
         let power_input = self.settings.power_input;
         let mut slope = self.setpoint_slope;
@@ -497,13 +591,23 @@ impl Instance {
         for ((vr, order), value) in vrs.iter().zip(orders).zip(values) {
             let var = known(*vr, RealVariable::from_value_reference, "Real")?;
             if var.causality() != Causality::Input {
-                return Err(error(format!("{} is not an input: only inputs take derivatives", var.name())));
+                return Err(error(format!(
+                    "{} is not an input: only inputs take derivatives",
+                    var.name()
+                )));
             }
             if *order < 1 {
-                return Err(error(format!("derivative order {order} of {} refused: orders start at 1", var.name())));
+                return Err(error(format!(
+                    "derivative order {order} of {} refused: orders start at 1",
+                    var.name()
+                )));
             }
             if !value.is_finite() {
-                return Err(error(format!("d({})/dt = {} refused: not a finite number", var.name(), shown(*value))));
+                return Err(error(format!(
+                    "d({})/dt = {} refused: not a finite number",
+                    var.name(),
+                    shown(*value)
+                )));
             }
             let drives = match var {
                 RealVariable::PowerReference => power_input,
@@ -589,7 +693,10 @@ impl Instance {
         }
         if !outside && self.excursion {
             self.excursion = false;
-            self.logger.info(LOG_EVENTS, &format!("setpoint = {setpoint} % is back in the operating window"));
+            self.logger.info(
+                LOG_EVENTS,
+                &format!("setpoint = {setpoint} % is back in the operating window"),
+            );
         }
         Status::Ok
     }
@@ -597,7 +704,10 @@ impl Instance {
     /// fmi2DoStep: advances exactly from the FMU's time by `h` seconds.
     pub fn do_step(&mut self, communication_point: f64, h: f64) -> CallResult {
         if !(h.is_finite() && h > 0.0) {
-            return Err(error(format!("communicationStepSize = {} s must be finite and > 0", shown(h))));
+            return Err(error(format!(
+                "communicationStepSize = {} s must be finite and > 0",
+                shown(h)
+            )));
         }
         let tolerance = TIME_TOLERANCE * self.time.abs().max(1.0);
         if !((communication_point - self.time).abs() <= tolerance) {
@@ -667,7 +777,11 @@ impl Instance {
             self.stop_time,
             self.module_parameter_file.clone(),
             self.module_sets.clone(),
-            ReserveState { fast: self.response.fast, shortfall: self.reserve_shortfall, increase: self.reserve_increase },
+            ReserveState {
+                fast: self.response.fast,
+                shortfall: self.reserve_shortfall,
+                increase: self.reserve_increase,
+            },
             self.plant.as_ref().map(|(_, plant)| plant.snapshot()),
         )
     }
@@ -678,18 +792,33 @@ impl Instance {
         let plant = match &saved.plant {
             Some(snapshot) => {
                 let invalid = |e: String| error(format!("the FMU state holds invalid values: {e}"));
-                let config = saved.settings.config().map_err(|e| invalid(e.to_string()))?;
-                let sets = saved.module_sets.as_deref();
-                let mut plant = Plant::new(saved.params, &config, sets, saved.inputs.setpoint, saved.inputs.power_reference)
+                let config = saved
+                    .settings
+                    .config()
                     .map_err(|e| invalid(e.to_string()))?;
+                let sets = saved.module_sets.as_deref();
+                let mut plant = Plant::new(
+                    saved.params,
+                    &config,
+                    sets,
+                    saved.inputs.setpoint,
+                    saved.inputs.power_reference,
+                )
+                .map_err(|e| invalid(e.to_string()))?;
                 plant.restore(snapshot.clone()).map_err(invalid)?;
                 Some((config, plant))
             }
             None => None,
         };
-        let initialised = matches!(saved.fmi_state, FmiState::StepComplete | FmiState::Terminated);
+        let initialised = matches!(
+            saved.fmi_state,
+            FmiState::StepComplete | FmiState::Terminated
+        );
         if initialised && plant.is_none() {
-            return Err(error(format!("the FMU state is inconsistent: {} without a plant state", saved.fmi_state)));
+            return Err(error(format!(
+                "the FMU state is inconsistent: {} without a plant state",
+                saved.fmi_state
+            )));
         }
         self.state = saved.fmi_state;
         self.params = saved.params;
@@ -697,7 +826,10 @@ impl Instance {
         self.inputs = saved.inputs;
         self.setpoint_slope = saved.setpoint_slope;
         self.excursion = saved.excursion;
-        self.response = FrequencyResponse { settings: saved.settings.reserve, fast: saved.reserve.fast };
+        self.response = FrequencyResponse {
+            settings: saved.settings.reserve,
+            fast: saved.reserve.fast,
+        };
         self.reserve_shortfall = saved.reserve.shortfall;
         self.reserve_increase = saved.reserve.increase;
         self.time = saved.time;
@@ -710,11 +842,22 @@ impl Instance {
 
     /// A status kind this FMU does not provide.
     pub fn status_not_available(kind: &str) -> CallResult {
-        Err(discard(format!("{kind} is not available: fmi2DoStep always completes synchronously")))
+        Err(discard(format!(
+            "{kind} is not available: fmi2DoStep always completes synchronously"
+        )))
     }
 }
 
 /// The variable of a type with value reference `vr`, or an error naming it.
-fn known<V>(vr: u32, lookup: fn(u32) -> Option<V>, type_name: &str) -> Result<V, super::status::Failure> {
-    lookup(vr).ok_or_else(|| error(format!("unknown value reference {vr} for a{} {type_name} variable", if type_name == "Integer" { "n" } else { "" })))
+fn known<V>(
+    vr: u32,
+    lookup: fn(u32) -> Option<V>,
+    type_name: &str,
+) -> Result<V, super::status::Failure> {
+    lookup(vr).ok_or_else(|| {
+        error(format!(
+            "unknown value reference {vr} for a{} {type_name} variable",
+            if type_name == "Integer" { "n" } else { "" }
+        ))
+    })
 }

@@ -64,7 +64,10 @@ impl Logger {
                 Some(_) if name == LOG_ALL => named.iter_mut().for_each(|n| *n = true),
                 Some(i) => named[i] = true,
                 None => {
-                    return Err(format!("unknown log category \"{name}\"; known: {}", LOG_CATEGORIES.join(", ")))
+                    return Err(format!(
+                        "unknown log category \"{name}\"; known: {}",
+                        LOG_CATEGORIES.join(", ")
+                    ))
                 }
             }
         }
@@ -81,7 +84,10 @@ impl Logger {
     }
 
     fn category_enabled(&self, category: &str) -> bool {
-        LOG_CATEGORIES.iter().zip(&self.enabled).any(|(c, on)| *on && *c == category)
+        LOG_CATEGORIES
+            .iter()
+            .zip(&self.enabled)
+            .any(|(c, on)| *on && *c == category)
     }
 
     /// An informative message (fmi2OK) in `category`, if enabled.
@@ -108,7 +114,16 @@ impl Logger {
 
     fn emit(&self, status: sys::fmi2Status, category: &str, message: &str) {
         // SAFETY: the callback and environment are the importer's, given to fmi2Instantiate.
-        unsafe { emit_to(self.callback, self.environment, &self.instance_name, status, category, message) };
+        unsafe {
+            emit_to(
+                self.callback,
+                self.environment,
+                &self.instance_name,
+                status,
+                category,
+                message,
+            )
+        };
     }
 }
 
@@ -130,7 +145,14 @@ pub unsafe fn emit_to(
     // SAFETY: the importer gave us this function for exactly this call; all strings are
     // NUL-terminated and live across the call; "%s" consumes exactly one char* argument.
     unsafe {
-        log(environment, instance_name.as_ptr(), status, category.as_ptr(), c"%s".as_ptr(), message.as_ptr());
+        log(
+            environment,
+            instance_name.as_ptr(),
+            status,
+            category.as_ptr(),
+            c"%s".as_ptr(),
+            message.as_ptr(),
+        );
     }
 }
 
@@ -156,15 +178,24 @@ mod tests {
         let mut l = logger(true);
         assert!(l.category_enabled(LOG_EVENTS));
         l.set_debug_logging(false, &names(&[LOG_EVENTS])).unwrap();
-        assert!(!l.category_enabled(LOG_EVENTS), "switching a category off wins over logging on");
-        l.set_debug_logging(true, &names(&["logStatusWarning"])).unwrap();
-        assert!(l.category_enabled("logStatusWarning") && !l.category_enabled(LOG_EVENTS), "a list enables exactly those");
+        assert!(
+            !l.category_enabled(LOG_EVENTS),
+            "switching a category off wins over logging on"
+        );
+        l.set_debug_logging(true, &names(&["logStatusWarning"]))
+            .unwrap();
+        assert!(
+            l.category_enabled("logStatusWarning") && !l.category_enabled(LOG_EVENTS),
+            "a list enables exactly those"
+        );
         l.set_debug_logging(true, &[]).unwrap();
         assert!(l.category_enabled(LOG_EVENTS));
         l.set_debug_logging(false, &names(&[LOG_ALL])).unwrap();
         assert!(!l.category_enabled(LOG_EVENTS) && !l.category_enabled("logStatusError"));
         let before = l.enabled.clone();
-        assert!(l.set_debug_logging(true, &names(&[LOG_EVENTS, "noSuchCategory"])).is_err());
+        assert!(l
+            .set_debug_logging(true, &names(&[LOG_EVENTS, "noSuchCategory"]))
+            .is_err());
         assert_eq!(l.enabled, before, "an unknown name changes nothing");
     }
 }

@@ -43,9 +43,15 @@ impl FmiState {
 
     /// Inverse of [`FmiState::code`].
     pub fn from_code(code: u8) -> Option<Self> {
-        [Self::Instantiated, Self::InitializationMode, Self::StepComplete, Self::Terminated, Self::Error]
-            .into_iter()
-            .find(|s| s.code() == code)
+        [
+            Self::Instantiated,
+            Self::InitializationMode,
+            Self::StepComplete,
+            Self::Terminated,
+            Self::Error,
+        ]
+        .into_iter()
+        .find(|s| s.code() == code)
     }
 }
 
@@ -122,8 +128,12 @@ impl Call {
             Call::SetupExperiment | Call::EnterInitializationMode => INST,
             Call::ExitInitializationMode => INIT,
             Call::Terminate => STEP,
-            Call::GetReal | Call::GetInteger | Call::GetBoolean | Call::GetString => INIT | STEP | TERM | ERR,
-            Call::SetReal | Call::SetInteger | Call::SetBoolean | Call::SetString => INST | INIT | STEP,
+            Call::GetReal | Call::GetInteger | Call::GetBoolean | Call::GetString => {
+                INIT | STEP | TERM | ERR
+            }
+            Call::SetReal | Call::SetInteger | Call::SetBoolean | Call::SetString => {
+                INST | INIT | STEP
+            }
             Call::GetDirectionalDerivative => INIT | STEP | TERM | ERR,
             Call::SetRealInputDerivatives => INST | INIT | STEP,
             Call::GetRealOutputDerivatives => STEP | TERM | ERR,
@@ -213,7 +223,13 @@ mod tests {
         assert!(Call::SetReal.allowed_in(FmiState::Instantiated));
         assert!(!Call::SetReal.allowed_in(FmiState::Terminated));
         assert!(!Call::CancelStep.allowed_in(FmiState::StepComplete));
-        for s in [FmiState::Instantiated, FmiState::InitializationMode, FmiState::StepComplete, FmiState::Terminated, FmiState::Error] {
+        for s in [
+            FmiState::Instantiated,
+            FmiState::InitializationMode,
+            FmiState::StepComplete,
+            FmiState::Terminated,
+            FmiState::Error,
+        ] {
             assert!(Call::FreeInstance.allowed_in(s));
             assert_eq!(FmiState::from_code(s.code()), Some(s));
         }

@@ -35,12 +35,18 @@ pub type CallResult = Result<Status, Failure>;
 
 /// An fmi2Error failure with `message`.
 pub fn error(message: impl Into<String>) -> Failure {
-    Failure { severity: Severity::Error, message: message.into() }
+    Failure {
+        severity: Severity::Error,
+        message: message.into(),
+    }
 }
 
 /// An fmi2Discard failure with `message`.
 pub fn discard(message: impl Into<String>) -> Failure {
-    Failure { severity: Severity::Discard, message: message.into() }
+    Failure {
+        severity: Severity::Discard,
+        message: message.into(),
+    }
 }
 
 impl Status {

@@ -3,8 +3,8 @@
 //! XML and this code cannot drift apart; the model description's start values are the
 //! instance's defaults ([`start_values`]).
 
-use aem_model::{ModuleParameter, OperatingState, Parameters, Plant, PlantSettings};
 use crate::model_description::{BooleanVariable, IntegerVariable, RealVariable, StringVariable};
+use aem_model::{ModuleParameter, OperatingState, Parameters, Plant, PlantSettings};
 
 /// The instance's input values.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -20,26 +20,37 @@ pub struct Inputs {
 impl Default for Inputs {
     fn default() -> Self {
         use crate::model_description::start;
-        Inputs { setpoint: start::SETPOINT, power_reference: start::POWER_REFERENCE, frequency: start::FREQUENCY }
+        Inputs {
+            setpoint: start::SETPOINT,
+            power_reference: start::POWER_REFERENCE,
+            frequency: start::FREQUENCY,
+        }
     }
 }
 
 /// The model description's start values: module parameters, hub settings and inputs.
 pub fn start_values() -> (Parameters, PlantSettings, Inputs) {
-    let (mut params, mut settings, mut inputs) = (Parameters::default(), PlantSettings::default(), Inputs::default());
+    let (mut params, mut settings, mut inputs) = (
+        Parameters::default(),
+        PlantSettings::default(),
+        Inputs::default(),
+    );
     for var in RealVariable::ALL {
-        let slot = real_parameter_mut(&mut params, &mut settings, var).or_else(|| real_input_mut(&mut inputs, var));
+        let slot = real_parameter_mut(&mut params, &mut settings, var)
+            .or_else(|| real_input_mut(&mut inputs, var));
         if let (Some(slot), Some(start)) = (slot, var.start()) {
             *slot = start;
         }
     }
     for var in IntegerVariable::ALL {
-        if let (Some(slot), Some(start)) = (integer_parameter_mut(&mut settings, var), var.start()) {
+        if let (Some(slot), Some(start)) = (integer_parameter_mut(&mut settings, var), var.start())
+        {
             *slot = start;
         }
     }
     for var in BooleanVariable::ALL {
-        if let (Some(slot), Some(start)) = (boolean_parameter_mut(&mut settings, var), var.start()) {
+        if let (Some(slot), Some(start)) = (boolean_parameter_mut(&mut settings, var), var.start())
+        {
             *slot = start;
         }
     }
@@ -47,7 +58,11 @@ pub fn start_values() -> (Parameters, PlantSettings, Inputs) {
 }
 
 /// The Real parameter field behind `var`, or None if `var` is not a parameter.
-pub fn real_parameter_mut<'a>(params: &'a mut Parameters, settings: &'a mut PlantSettings, var: RealVariable) -> Option<&'a mut f64> {
+pub fn real_parameter_mut<'a>(
+    params: &'a mut Parameters,
+    settings: &'a mut PlantSettings,
+    var: RealVariable,
+) -> Option<&'a mut f64> {
     match module_parameter(var) {
         Some(parameter) => Some(params.field_mut(parameter)),
         None => setting_mut(settings, var),
@@ -71,11 +86,12 @@ pub fn module_parameter(var: RealVariable) -> Option<ModuleParameter> {
         NominalCurrent => Some(P::NominalCurrent),
         MinSetpoint => Some(P::MinSetpoint),
         MaxSetpoint => Some(P::MaxSetpoint),
-        Hysteresis | ColdStartTime | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration
-        | ParameterSpread | Setpoint | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced
-        | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts | Frequency
-        | ReserveRequest | FcrNCapacity | FcrDUpCapacity | FcrDDownCapacity | FcrCapacity | FfrCapacity
-        | FfrTriggerFrequency | FfrSupportDuration => None,
+        Hysteresis | ColdStartTime | WarmStartTime | StartPower | StandbyPower
+        | StandbyDuration | StopDuration | ParameterSpread | Setpoint | PowerReference
+        | Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower | HubH2Flow
+        | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts | Frequency
+        | ReserveRequest | FcrNCapacity | FcrDUpCapacity | FcrDDownCapacity | FcrCapacity
+        | FfrCapacity | FfrTriggerFrequency | FfrSupportDuration => None,
     }
 }
 
@@ -98,9 +114,10 @@ fn setting_mut(settings: &mut PlantSettings, var: RealVariable) -> Option<&mut f
         FfrCapacity => Some(&mut settings.reserve.ffr),
         FfrTriggerFrequency => Some(&mut settings.reserve.ffr_trigger),
         FfrSupportDuration => Some(&mut settings.reserve.ffr_duration),
-        Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance | H2Coefficient
-        | NominalCurrent | MinSetpoint | MaxSetpoint | Setpoint | PowerReference | Current | Voltage | Power | H2Flow
-        | Energy | H2Produced | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts
+        Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance
+        | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Setpoint
+        | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower
+        | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts
         | Frequency | ReserveRequest => None,
     }
 }
@@ -112,11 +129,13 @@ pub fn real_input_mut(inputs: &mut Inputs, var: RealVariable) -> Option<&mut f64
         Setpoint => Some(&mut inputs.setpoint),
         PowerReference => Some(&mut inputs.power_reference),
         Frequency => Some(&mut inputs.frequency),
-        Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower | HubH2Flow | HubH2MassFlow | HubEnergy
-        | HubH2Produced | RunningHours | Starts | Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept
-        | OhmicResistance | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Hysteresis | ColdStartTime
-        | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration | ParameterSpread | ReserveRequest
-        | FcrNCapacity | FcrDUpCapacity | FcrDDownCapacity | FcrCapacity | FfrCapacity | FfrTriggerFrequency
+        Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower | HubH2Flow
+        | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts | Gain | TauZero
+        | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance
+        | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Hysteresis
+        | ColdStartTime | WarmStartTime | StartPower | StandbyPower | StandbyDuration
+        | StopDuration | ParameterSpread | ReserveRequest | FcrNCapacity | FcrDUpCapacity
+        | FcrDDownCapacity | FcrCapacity | FfrCapacity | FfrTriggerFrequency
         | FfrSupportDuration => None,
     }
 }
@@ -140,23 +159,28 @@ pub fn real_output(var: RealVariable, plant: &Plant, reserve_request: f64) -> Op
         RunningHours => Some(plant.running_hours()),
         Starts => Some(plant.starts()),
         ReserveRequest => Some(reserve_request),
-        Setpoint | PowerReference | Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept
-        | OhmicResistance | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Hysteresis | ColdStartTime
-        | WarmStartTime | StartPower | StandbyPower | StandbyDuration | StopDuration | ParameterSpread | Frequency
-        | FcrNCapacity | FcrDUpCapacity | FcrDDownCapacity | FcrCapacity | FfrCapacity | FfrTriggerFrequency
+        Setpoint | PowerReference | Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit
+        | VoltageIntercept | OhmicResistance | H2Coefficient | NominalCurrent | MinSetpoint
+        | MaxSetpoint | Hysteresis | ColdStartTime | WarmStartTime | StartPower | StandbyPower
+        | StandbyDuration | StopDuration | ParameterSpread | Frequency | FcrNCapacity
+        | FcrDUpCapacity | FcrDDownCapacity | FcrCapacity | FfrCapacity | FfrTriggerFrequency
         | FfrSupportDuration => None,
     }
 }
 
 /// The Integer parameter field behind `var`, or None if `var` is not a parameter.
-pub fn integer_parameter_mut(settings: &mut PlantSettings, var: IntegerVariable) -> Option<&mut i32> {
+pub fn integer_parameter_mut(
+    settings: &mut PlantSettings,
+    var: IntegerVariable,
+) -> Option<&mut i32> {
     use IntegerVariable::*;
     match var {
         NModules => Some(&mut settings.n_modules),
         Dispatch => Some(&mut settings.dispatch),
         BelowMinimum => Some(&mut settings.below_minimum),
         SpreadSeed => Some(&mut settings.spread_seed),
-        OperatingState | ModulesIdle | ModulesStarting | ModulesRunning | ModulesStandby | ModulesStopping => None,
+        OperatingState | ModulesIdle | ModulesStarting | ModulesRunning | ModulesStandby
+        | ModulesStopping => None,
     }
 }
 
@@ -178,11 +202,16 @@ pub fn integer_output(var: IntegerVariable, plant: &Plant) -> Option<i32> {
 /// The name of `value` among the items of Enumeration variable `var` ("equal" for dispatch 1),
 /// or "invalid" if it is none of them (or `var` is a plain Integer).
 pub fn item_name(var: IntegerVariable, value: i32) -> &'static str {
-    var.enumeration().and_then(|e| e.item(value)).map_or("invalid", |item| item.name)
+    var.enumeration()
+        .and_then(|e| e.item(value))
+        .map_or("invalid", |item| item.name)
 }
 
 /// The Boolean parameter field behind `var`, or None if `var` is not a parameter.
-pub fn boolean_parameter_mut(settings: &mut PlantSettings, var: BooleanVariable) -> Option<&mut bool> {
+pub fn boolean_parameter_mut(
+    settings: &mut PlantSettings,
+    var: BooleanVariable,
+) -> Option<&mut bool> {
     match var {
         BooleanVariable::PowerInput => Some(&mut settings.power_input),
         BooleanVariable::ReserveCompensation => Some(&mut settings.reserve.compensation),
@@ -190,7 +219,10 @@ pub fn boolean_parameter_mut(settings: &mut PlantSettings, var: BooleanVariable)
 }
 
 /// The String parameter field behind `var` (given the instance's `moduleParameterFile`).
-pub fn string_parameter_mut(module_parameter_file: &mut String, var: StringVariable) -> Option<&mut String> {
+pub fn string_parameter_mut(
+    module_parameter_file: &mut String,
+    var: StringVariable,
+) -> Option<&mut String> {
     match var {
         StringVariable::ModuleParameterFile => Some(module_parameter_file),
     }
@@ -207,39 +239,95 @@ mod tests {
     fn enumeration_items_are_the_model_codes() {
         use crate::model_description::enumeration;
         use aem_model::{BelowMinimum, DispatchPolicy};
-        let names = |e: crate::model_description::Enumeration| e.items.iter().map(|i| (i.name, i.value)).collect::<Vec<_>>();
+        let names = |e: crate::model_description::Enumeration| {
+            e.items
+                .iter()
+                .map(|i| (i.name, i.value))
+                .collect::<Vec<_>>()
+        };
         assert_eq!(
             names(enumeration::DISPATCH),
-            [("equal", DispatchPolicy::Equal as i32), ("sequential", DispatchPolicy::Sequential as i32), ("rotation", DispatchPolicy::Rotation as i32)]
+            [
+                ("equal", DispatchPolicy::Equal as i32),
+                ("sequential", DispatchPolicy::Sequential as i32),
+                ("rotation", DispatchPolicy::Rotation as i32)
+            ]
         );
         assert_eq!(
             names(enumeration::BELOW_MINIMUM),
-            [("stayAtMinimum", BelowMinimum::Minimum as i32), ("standby", BelowMinimum::Standby as i32), ("off", BelowMinimum::Off as i32)]
+            [
+                ("stayAtMinimum", BelowMinimum::Minimum as i32),
+                ("standby", BelowMinimum::Standby as i32),
+                ("off", BelowMinimum::Off as i32)
+            ]
         );
         use OperatingState::*;
-        let states = [("idle", Idle), ("starting", Curve), ("running", Steady), ("standby", Standby), ("stopping", Blowdown)];
-        assert_eq!(names(enumeration::OPERATING_STATE), states.map(|(n, s)| (n, s.code())));
+        let states = [
+            ("idle", Idle),
+            ("starting", Curve),
+            ("running", Steady),
+            ("standby", Standby),
+            ("stopping", Blowdown),
+        ];
+        assert_eq!(
+            names(enumeration::OPERATING_STATE),
+            states.map(|(n, s)| (n, s.code()))
+        );
         for e in [enumeration::DISPATCH, enumeration::BELOW_MINIMUM] {
             for item in e.items {
                 let code = i64::from(item.value);
-                let accepted = if e.name == "Dispatch" { DispatchPolicy::from_code(code).is_ok() } else { BelowMinimum::from_code(code).is_ok() };
-                assert!(accepted, "{}.{} = {} is a code the model accepts", e.name, item.name, item.value);
+                let accepted = if e.name == "Dispatch" {
+                    DispatchPolicy::from_code(code).is_ok()
+                } else {
+                    BelowMinimum::from_code(code).is_ok()
+                };
+                assert!(
+                    accepted,
+                    "{}.{} = {} is a code the model accepts",
+                    e.name, item.name, item.value
+                );
             }
         }
-        assert_eq!(IntegerVariable::Dispatch.enumeration(), Some(enumeration::DISPATCH));
-        assert_eq!(IntegerVariable::BelowMinimum.enumeration(), Some(enumeration::BELOW_MINIMUM));
-        assert_eq!(IntegerVariable::OperatingState.enumeration(), Some(enumeration::OPERATING_STATE));
+        assert_eq!(
+            IntegerVariable::Dispatch.enumeration(),
+            Some(enumeration::DISPATCH)
+        );
+        assert_eq!(
+            IntegerVariable::BelowMinimum.enumeration(),
+            Some(enumeration::BELOW_MINIMUM)
+        );
+        assert_eq!(
+            IntegerVariable::OperatingState.enumeration(),
+            Some(enumeration::OPERATING_STATE)
+        );
         assert_eq!(IntegerVariable::NModules.enumeration(), None);
-        assert_eq!((item_name(IntegerVariable::Dispatch, 2), item_name(IntegerVariable::Dispatch, 9)), ("sequential", "invalid"));
+        assert_eq!(
+            (
+                item_name(IntegerVariable::Dispatch, 2),
+                item_name(IntegerVariable::Dispatch, 9)
+            ),
+            ("sequential", "invalid")
+        );
     }
 
     #[test]
     fn module_parameters_have_the_model_description_names_and_units() {
-        let mapped: Vec<ModuleParameter> = RealVariable::ALL.into_iter().filter_map(module_parameter).collect();
-        assert_eq!(mapped, ModuleParameter::ALL, "every module parameter once, in the XML's order");
+        let mapped: Vec<ModuleParameter> = RealVariable::ALL
+            .into_iter()
+            .filter_map(module_parameter)
+            .collect();
+        assert_eq!(
+            mapped,
+            ModuleParameter::ALL,
+            "every module parameter once, in the XML's order"
+        );
         for var in RealVariable::ALL {
             if let Some(parameter) = module_parameter(var) {
-                assert_eq!((parameter.name(), parameter.unit()), (var.name(), var.unit()), "{var:?}");
+                assert_eq!(
+                    (parameter.name(), parameter.unit()),
+                    (var.name(), var.unit()),
+                    "{var:?}"
+                );
             }
         }
     }
@@ -265,31 +353,63 @@ mod tests {
         for var in RealVariable::ALL {
             let (mut p, mut s, mut i) = (params, defaults, inputs);
             let param = real_parameter_mut(&mut p, &mut s, var).map(|v| *v);
-            assert_eq!(param.is_some(), var.causality() == Causality::Parameter, "{var:?}");
-            assert_eq!(real_output(var, &plant, 0.0).is_some(), var.causality() == Causality::Output, "{var:?}");
+            assert_eq!(
+                param.is_some(),
+                var.causality() == Causality::Parameter,
+                "{var:?}"
+            );
+            assert_eq!(
+                real_output(var, &plant, 0.0).is_some(),
+                var.causality() == Causality::Output,
+                "{var:?}"
+            );
             let input = real_input_mut(&mut i, var).map(|v| *v);
-            assert_eq!(input.is_some(), var.causality() == Causality::Input, "{var:?}");
+            assert_eq!(
+                input.is_some(),
+                var.causality() == Causality::Input,
+                "{var:?}"
+            );
             if var.causality() != Causality::Output {
-                assert_eq!(param.or(input), var.start(), "{var:?}: the instance's default is the XML's start");
+                assert_eq!(
+                    param.or(input),
+                    var.start(),
+                    "{var:?}: the instance's default is the XML's start"
+                );
             }
         }
         for var in IntegerVariable::ALL {
             let mut s = defaults;
             let param = integer_parameter_mut(&mut s, var).map(|v| *v);
-            assert_eq!(param.is_some(), var.causality() == Causality::Parameter, "{var:?}");
-            assert_eq!(integer_output(var, &plant).is_some(), var.causality() == Causality::Output, "{var:?}");
+            assert_eq!(
+                param.is_some(),
+                var.causality() == Causality::Parameter,
+                "{var:?}"
+            );
+            assert_eq!(
+                integer_output(var, &plant).is_some(),
+                var.causality() == Causality::Output,
+                "{var:?}"
+            );
             assert_eq!(param, var.start(), "{var:?}");
         }
         for var in StringVariable::ALL {
             let mut file = String::new();
             let param = string_parameter_mut(&mut file, var).map(|v| v.clone());
-            assert_eq!(param.is_some(), var.causality() == Causality::Parameter, "{var:?}");
+            assert_eq!(
+                param.is_some(),
+                var.causality() == Causality::Parameter,
+                "{var:?}"
+            );
             assert_eq!(param.as_deref(), var.start(), "{var:?}");
         }
         for var in BooleanVariable::ALL {
             let mut s = defaults;
             let param = boolean_parameter_mut(&mut s, var).map(|v| *v);
-            assert_eq!(param.is_some(), var.causality() == Causality::Parameter, "{var:?}");
+            assert_eq!(
+                param.is_some(),
+                var.causality() == Causality::Parameter,
+                "{var:?}"
+            );
             assert_eq!(param, var.start(), "{var:?}");
         }
     }

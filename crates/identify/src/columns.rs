@@ -108,7 +108,9 @@ pub struct ColumnMap {
 impl Default for ColumnMap {
     /// Every channel under its default name ([`Channel::key`]).
     fn default() -> Self {
-        ColumnMap { names: Channel::ALL.map(|c| c.key().to_string()) }
+        ColumnMap {
+            names: Channel::ALL.map(|c| c.key().to_string()),
+        }
     }
 }
 
@@ -118,12 +120,15 @@ impl ColumnMap {
         let mut map = ColumnMap::default();
         for m in mappings {
             let m = m.as_ref();
-            let (key, name) = m
-                .split_once('=')
-                .ok_or_else(|| format!("column mapping `{m}` must look like KEY=NAME, e.g. current=StackCurrent"))?;
+            let (key, name) = m.split_once('=').ok_or_else(|| {
+                format!("column mapping `{m}` must look like KEY=NAME, e.g. current=StackCurrent")
+            })?;
             let channel = Channel::from_key(key.trim()).ok_or_else(|| {
                 let keys: Vec<&str> = Channel::ALL.iter().map(|c| c.key()).collect();
-                format!("column mapping `{m}`: unknown key `{key}` (known: {})", keys.join(", "))
+                format!(
+                    "column mapping `{m}`: unknown key `{key}` (known: {})",
+                    keys.join(", ")
+                )
             })?;
             let name = name.trim();
             if name.is_empty() {
@@ -148,10 +153,11 @@ impl ColumnMap {
     pub fn locate(&self, header: &[&str]) -> [Option<usize>; 8] {
         Channel::ALL.map(|c| {
             let want = self.name(c);
-            header
-                .iter()
-                .position(|h| h.trim() == want)
-                .or_else(|| header.iter().position(|h| h.trim().eq_ignore_ascii_case(want)))
+            header.iter().position(|h| h.trim() == want).or_else(|| {
+                header
+                    .iter()
+                    .position(|h| h.trim().eq_ignore_ascii_case(want))
+            })
         })
     }
 }
@@ -166,9 +172,15 @@ mod tests {
         assert_eq!(map.name(Channel::Current), "StackCurrent");
         assert_eq!(map.name(Channel::H2Flow), "H2");
         assert_eq!(map.name(Channel::Voltage), "voltage");
-        assert!(ColumnMap::with_mappings(&["amps=I"]).unwrap_err().contains("unknown key `amps`"));
-        assert!(ColumnMap::with_mappings(&["current"]).unwrap_err().contains("KEY=NAME"));
-        assert!(ColumnMap::with_mappings(&["current="]).unwrap_err().contains("empty"));
+        assert!(ColumnMap::with_mappings(&["amps=I"])
+            .unwrap_err()
+            .contains("unknown key `amps`"));
+        assert!(ColumnMap::with_mappings(&["current"])
+            .unwrap_err()
+            .contains("KEY=NAME"));
+        assert!(ColumnMap::with_mappings(&["current="])
+            .unwrap_err()
+            .contains("empty"));
     }
 
     #[test]

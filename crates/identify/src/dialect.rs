@@ -41,7 +41,10 @@ pub struct Dialect {
 
 impl Default for Dialect {
     fn default() -> Self {
-        Dialect { separator: b',', decimal: DecimalMark::Point }
+        Dialect {
+            separator: b',',
+            decimal: DecimalMark::Point,
+        }
     }
 }
 
@@ -116,7 +119,10 @@ impl DialectChoice {
 /// when `head` does not end with a newline and holds more than one line), without a BOM.
 fn split_lines(head: &[u8]) -> Vec<&[u8]> {
     let head = head.strip_prefix(b"\xef\xbb\xbf").unwrap_or(head);
-    let mut lines: Vec<&[u8]> = head.split(|&b| b == b'\n').map(|l| l.strip_suffix(b"\r").unwrap_or(l)).collect();
+    let mut lines: Vec<&[u8]> = head
+        .split(|&b| b == b'\n')
+        .map(|l| l.strip_suffix(b"\r").unwrap_or(l))
+        .collect();
     if lines.len() > 1 {
         lines.pop(); // After the last '\n': empty, or a line cut short.
     }
@@ -139,7 +145,9 @@ fn count_outside_quotes(line: &[u8], separator: u8) -> usize {
 }
 
 fn detect_separator(lines: &[&[u8]]) -> u8 {
-    let Some((header, rows)) = lines.split_first() else { return b',' };
+    let Some((header, rows)) = lines.split_first() else {
+        return b',';
+    };
     let mut best: Option<(usize, u8)> = None;
     for sep in SEPARATORS {
         let n = count_outside_quotes(header, sep);
@@ -161,7 +169,11 @@ fn detect_decimal(lines: &[&[u8]], separator: u8) -> DecimalMark {
             point |= is_number_with(text, '.');
         }
     }
-    if comma && !point { DecimalMark::Comma } else { DecimalMark::Point }
+    if comma && !point {
+        DecimalMark::Comma
+    } else {
+        DecimalMark::Point
+    }
 }
 
 /// `text` is a number with `mark` between integer and fractional digits: `[-+]d+<mark>d+`
@@ -190,13 +202,40 @@ mod tests {
 
     #[test]
     fn separators_and_decimal_marks_are_detected() {
-        let comma = Dialect { separator: b',', decimal: DecimalMark::Point };
+        let comma = Dialect {
+            separator: b',',
+            decimal: DecimalMark::Point,
+        };
         assert_eq!(detect("time,current\n0,53.35\n1,53.4\n"), comma);
-        assert_eq!(detect("time;current\n0;53,35\n1;53,4\n"), Dialect { separator: b';', decimal: DecimalMark::Comma });
-        assert_eq!(detect("time\tcurrent\n0\t53,35\n"), Dialect { separator: b'\t', decimal: DecimalMark::Comma });
-        assert_eq!(detect("time;current\n0;53.35\n"), Dialect { separator: b';', decimal: DecimalMark::Point });
+        assert_eq!(
+            detect("time;current\n0;53,35\n1;53,4\n"),
+            Dialect {
+                separator: b';',
+                decimal: DecimalMark::Comma
+            }
+        );
+        assert_eq!(
+            detect("time\tcurrent\n0\t53,35\n"),
+            Dialect {
+                separator: b'\t',
+                decimal: DecimalMark::Comma
+            }
+        );
+        assert_eq!(
+            detect("time;current\n0;53.35\n"),
+            Dialect {
+                separator: b';',
+                decimal: DecimalMark::Point
+            }
+        );
         // Integers only: nothing tells, the point is assumed (and parses them alike).
-        assert_eq!(detect("time;current\n0;53\n1;54\n"), Dialect { separator: b';', decimal: DecimalMark::Point });
+        assert_eq!(
+            detect("time;current\n0;53\n1;54\n"),
+            Dialect {
+                separator: b';',
+                decimal: DecimalMark::Point
+            }
+        );
         // A comma inside the header names of a `;` file does not make it comma-separated.
         assert_eq!(detect("time [s];current [A, DC]\n0;1,5\n").separator, b';');
         // Quoted separators do not count.
@@ -211,21 +250,45 @@ mod tests {
     #[test]
     fn a_bom_crlf_and_a_cut_last_line_do_not_confuse_detection() {
         let d = detect("\u{feff}time;current\r\n0;53,35\r\n1;53,");
-        assert_eq!(d, Dialect { separator: b';', decimal: DecimalMark::Comma });
+        assert_eq!(
+            d,
+            Dialect {
+                separator: b';',
+                decimal: DecimalMark::Comma
+            }
+        );
         assert_eq!(detect("time"), Dialect::default());
         assert_eq!(detect(""), Dialect::default());
     }
 
     #[test]
     fn given_parts_win_and_contradictions_are_refused() {
-        let given = DialectChoice { separator: Some(b';'), decimal: None };
-        assert_eq!(given.resolve(b"a|b\n1|2\n").unwrap(), Dialect { separator: b';', decimal: DecimalMark::Point });
-        let both = DialectChoice { separator: Some(b','), decimal: Some(DecimalMark::Comma) };
-        assert!(both.resolve(b"").unwrap_err().contains("both the separator and the decimal mark"));
+        let given = DialectChoice {
+            separator: Some(b';'),
+            decimal: None,
+        };
+        assert_eq!(
+            given.resolve(b"a|b\n1|2\n").unwrap(),
+            Dialect {
+                separator: b';',
+                decimal: DecimalMark::Point
+            }
+        );
+        let both = DialectChoice {
+            separator: Some(b','),
+            decimal: Some(DecimalMark::Comma),
+        };
+        assert!(both
+            .resolve(b"")
+            .unwrap_err()
+            .contains("both the separator and the decimal mark"));
         assert_eq!(DialectChoice::parse_separator("semicolon"), Ok(Some(b';')));
         assert_eq!(DialectChoice::parse_separator("|"), Ok(Some(b'|')));
         assert!(DialectChoice::parse_separator("x").is_err());
-        assert_eq!(DialectChoice::parse_decimal(","), Ok(Some(DecimalMark::Comma)));
+        assert_eq!(
+            DialectChoice::parse_decimal(","),
+            Ok(Some(DecimalMark::Comma))
+        );
         assert!(DialectChoice::parse_decimal("dot").is_err());
     }
 

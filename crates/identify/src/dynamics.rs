@@ -46,7 +46,12 @@ impl Free {
 
     /// θ of `p`.
     pub fn theta(self, p: &Parameters) -> Vec<f64> {
-        let linear = [p.gain.ln(), p.tau_zero.ln(), p.tau_pole1.ln(), p.tau_pole2.ln()];
+        let linear = [
+            p.gain.ln(),
+            p.tau_zero.ln(),
+            p.tau_pole1.ln(),
+            p.tau_pole2.ln(),
+        ];
         match self {
             Free::Linear => linear.to_vec(),
             Free::Ramp => vec![p.ramp_up_limit.ln()],
@@ -75,12 +80,22 @@ impl Free {
 /// Model current [A] at rows 0..`len` of a segment, from [`Module`] in steady state at the
 /// first setpoint, stepped from t[n−1] to t[n] with setpoint u[n]. False if the module
 /// refuses the parameters.
-pub fn simulate_segment(params: &Parameters, seg: &Segment, len: usize, out: &mut Vec<f64>) -> bool {
+pub fn simulate_segment(
+    params: &Parameters,
+    seg: &Segment,
+    len: usize,
+    out: &mut Vec<f64>,
+) -> bool {
     out.clear();
-    let Ok(mut module) = Module::new(*params, seg.setpoint[0]) else { return false };
+    let Ok(mut module) = Module::new(*params, seg.setpoint[0]) else {
+        return false;
+    };
     out.push(module.current());
     for n in 1..len.min(seg.len()) {
-        if module.step(seg.setpoint[n], seg.time[n] - seg.time[n - 1]).is_err() {
+        if module
+            .step(seg.setpoint[n], seg.time[n] - seg.time[n - 1])
+            .is_err()
+        {
             return false;
         }
         out.push(module.current());
@@ -102,7 +117,13 @@ pub struct StepResiduals<'a> {
 impl<'a> StepResiduals<'a> {
     /// Residuals of the steps `chosen` (indices into `set.steps`).
     pub fn steps(set: &'a StepSet, chosen: &[usize], base: Parameters, free: Free) -> Self {
-        StepResiduals { set, base, free, plan: modal::plan(set, chosen), trajectory_settle: None }
+        StepResiduals {
+            set,
+            base,
+            free,
+            plan: modal::plan(set, chosen),
+            trajectory_settle: None,
+        }
     }
 
     /// Residuals I_meas − I_model of every running row at least `settle` seconds after its
@@ -115,7 +136,13 @@ impl<'a> StepResiduals<'a> {
             .filter(|(_, s)| s.time[s.len() - 1] - s.time[0] > settle)
             .map(|(i, s)| (i, s.len(), Vec::new()))
             .collect();
-        StepResiduals { set, base, free: Free::All, plan, trajectory_settle: Some(settle) }
+        StepResiduals {
+            set,
+            base,
+            free: Free::All,
+            plan,
+            trajectory_settle: Some(settle),
+        }
     }
 
     /// Steps in residual order, with the range of their residuals.
@@ -144,7 +171,10 @@ impl Residuals for StepResiduals<'_> {
     /// w₁ = a = (τz − τp1)/D, D = τp2 − τp1:
     ///   ∂a/∂ln τz = τz/D,  ∂a/∂ln τp1 = τp1(τz − τp2)/D²,  ∂a/∂ln τp2 = −τp2(τz − τp1)/D².
     fn exact_jacobian(&self, theta: &[f64]) -> Option<DMatrix<f64>> {
-        if self.free != Free::Linear || self.trajectory_settle.is_some() || self.base.ramp_up_limit < UNLIMITED_RAMP {
+        if self.free != Free::Linear
+            || self.trajectory_settle.is_some()
+            || self.base.ramp_up_limit < UNLIMITED_RAMP
+        {
             return None;
         }
         let p = self.free.apply(&self.base, theta);
@@ -154,7 +184,12 @@ impl Residuals for StepResiduals<'_> {
         let a = (tz - t1) / d;
         let taus = [t1, t2];
         let weights = [a, 1.0 - a];
-        let modal = modal::Modal { gain: p.gain, taus: &taus, weights: &weights, window: (p.min_setpoint, p.max_setpoint) };
+        let modal = modal::Modal {
+            gain: p.gain,
+            taus: &taus,
+            weights: &weights,
+            window: (p.min_setpoint, p.max_setpoint),
+        };
         let mut out = Vec::new();
         let mut raw: Vec<Vec<f64>> = vec![Vec::new(); 4];
         if !modal.residuals(self.set, &self.plan, &mut out, Some(&mut raw[..])) {
@@ -188,7 +223,9 @@ impl Residuals for StepResiduals<'_> {
         // Segments are independent: simulate them on two threads (the machine's cores) when
         // there is enough work, and concatenate in plan order.
         let rows: usize = self.plan.iter().map(|(_, len, _)| len).sum();
-        let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).min(self.plan.len());
+        let workers = std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(self.plan.len());
         if workers < 2 || rows < PARALLEL_ROWS {
             return self.residuals_of(&self.plan, &params, out);
         }
@@ -225,7 +262,12 @@ const LOOSE_TOLERANCE: f64 = 1e-6;
 pub const UNLIMITED_RAMP: f64 = 1e9;
 
 impl StepResiduals<'_> {
-    fn residuals_of(&self, plan: &[modal::PlanEntry], params: &Parameters, out: &mut Vec<f64>) -> bool {
+    fn residuals_of(
+        &self,
+        plan: &[modal::PlanEntry],
+        params: &Parameters,
+        out: &mut Vec<f64>,
+    ) -> bool {
         let mut model = Vec::new();
         for (seg_index, len, list) in plan {
             let seg = &self.set.segments[*seg_index];
@@ -234,7 +276,12 @@ impl StepResiduals<'_> {
             }
             if let Some(settle) = self.trajectory_settle {
                 let from = seg.time.partition_point(|&t| t < seg.time[0] + settle);
-                out.extend(seg.current[from..].iter().zip(&model[from..]).map(|(m, s)| m - s));
+                out.extend(
+                    seg.current[from..]
+                        .iter()
+                        .zip(&model[from..])
+                        .map(|(m, s)| m - s),
+                );
                 continue;
             }
             for &k in list {
@@ -294,7 +341,11 @@ pub struct DynamicsOptions {
 
 impl Default for DynamicsOptions {
     fn default() -> Self {
-        DynamicsOptions { outlier_sigmas: 5.0, trajectory: false, settle: 600.0 }
+        DynamicsOptions {
+            outlier_sigmas: 5.0,
+            trajectory: false,
+            settle: 600.0,
+        }
     }
 }
 
@@ -350,9 +401,17 @@ pub struct DynamicsFit {
 }
 
 /// Identifies K, τz, τp1, τp2 and r from the steps of `set`; `base` supplies the others.
-pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) -> Result<DynamicsFit, String> {
-    let negative: Vec<usize> = (0..set.steps.len()).filter(|&k| set.steps[k].sign() == Sign::Negative).collect();
-    let positive: Vec<usize> = (0..set.steps.len()).filter(|&k| set.steps[k].sign() == Sign::Positive).collect();
+pub fn fit_dynamics(
+    set: &StepSet,
+    base: Parameters,
+    options: &DynamicsOptions,
+) -> Result<DynamicsFit, String> {
+    let negative: Vec<usize> = (0..set.steps.len())
+        .filter(|&k| set.steps[k].sign() == Sign::Negative)
+        .collect();
+    let positive: Vec<usize> = (0..set.steps.len())
+        .filter(|&k| set.steps[k].sign() == Sign::Positive)
+        .collect();
     if negative.len() < 2 {
         return Err(format!(
             "{} negative step(s) during steady running; at least 2 are needed for K, τz, τp1, τp2",
@@ -361,18 +420,34 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
     }
     // Start values: the mean negative response, and the initial slopes of the positive steps.
     let r0 = initial_ramp(set, &positive, &base);
-    let start = Parameters { ramp_up_limit: r0, ..initial_guess(set, &negative, base)? };
+    let start = Parameters {
+        ramp_up_limit: r0,
+        ..initial_guess(set, &negative, base)?
+    };
     // Stage 1 on the negative steps whose window the rate limit does not touch: there the
     // limited model equals the unlimited one, which is simulated with the limit lifted.
     let on_ramp = ramp_rows(set, &start)?;
-    let mut clean: Vec<usize> = negative.iter().copied().filter(|&k| !touches_ramp(set, &on_ramp, k)).collect();
+    let mut clean: Vec<usize> = negative
+        .iter()
+        .copied()
+        .filter(|&k| !touches_ramp(set, &on_ramp, k))
+        .collect();
     if clean.len() < 2 {
-        return Err(format!("{} negative step(s) clear of the rate limit; at least 2 are needed", clean.len()));
+        return Err(format!(
+            "{} negative step(s) clear of the rate limit; at least 2 are needed",
+            clean.len()
+        ));
     }
-    let unlimited = Parameters { ramp_up_limit: UNLIMITED_RAMP, ..start };
+    let unlimited = Parameters {
+        ramp_up_limit: UNLIMITED_RAMP,
+        ..start
+    };
     let (mut linear_fit, mut negative_used, negative_outliers) =
         fit_with_outlier_removal(set, &clean, unlimited, Free::Linear, options.outlier_sigmas)?;
-    let mut params = Parameters { ramp_up_limit: r0, ..Free::Linear.apply(&unlimited, &linear_fit.theta) };
+    let mut params = Parameters {
+        ramp_up_limit: r0,
+        ..Free::Linear.apply(&unlimited, &linear_fit.theta)
+    };
     // Stage 2: the ramp limit on the positive steps (full model).
     let mut ramp_stage = fit_ramp(set, &positive, params, options);
     if let Ok(Some((fit, _, _))) = &ramp_stage {
@@ -381,13 +456,21 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
     // Check the stage-1 selection with the identified model; refit if a used step turns out
     // to be touched by the limit.
     let on_ramp = ramp_rows(set, &params)?;
-    let touched: Vec<usize> = negative_used.iter().copied().filter(|&k| touches_ramp(set, &on_ramp, k)).collect();
+    let touched: Vec<usize> = negative_used
+        .iter()
+        .copied()
+        .filter(|&k| touches_ramp(set, &on_ramp, k))
+        .collect();
     if !touched.is_empty() {
         negative_used.retain(|k| !touched.contains(k));
         clean.retain(|k| !touched.contains(k));
         let problem = StepResiduals::steps(set, &negative_used, unlimited, Free::Linear);
-        linear_fit = lsq::minimize(&problem, &linear_fit.theta, 100, TOLERANCE, true).map_err(|e| format!("K, τz, τp1, τp2 refit: {e}"))?;
-        params = Parameters { ramp_up_limit: params.ramp_up_limit, ..Free::Linear.apply(&unlimited, &linear_fit.theta) };
+        linear_fit = lsq::minimize(&problem, &linear_fit.theta, 100, TOLERANCE, true)
+            .map_err(|e| format!("K, τz, τp1, τp2 refit: {e}"))?;
+        params = Parameters {
+            ramp_up_limit: params.ramp_up_limit,
+            ..Free::Linear.apply(&unlimited, &linear_fit.theta)
+        };
         ramp_stage = fit_ramp(set, &positive, params, options);
         if let Ok(Some((fit, _, _))) = &ramp_stage {
             params = Free::Ramp.apply(&params, &fit.theta);
@@ -397,7 +480,10 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
     let parameters = params;
     let value = |i: usize| linear_fit.theta[i].exp();
     // θ = ln(x): σ_x = x·σ_θ to first order.
-    let estimate = |i: usize| Estimate { value: value(i), standard_error: value(i) * linear_fit.standard_error(i) };
+    let estimate = |i: usize| Estimate {
+        value: value(i),
+        standard_error: value(i) * linear_fit.standard_error(i),
+    };
     let mut correlation = [[0.0; 4]; 4];
     for (i, row) in correlation.iter_mut().enumerate() {
         for (j, c) in row.iter_mut().enumerate() {
@@ -415,7 +501,11 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
     let mut residuals_by_step = step_residuals(set, &negative_used, parameters);
     let (ramp, positive_used, positive_outliers) = match ramp_stage {
         Err(e) => (Err(e), Vec::new(), 0),
-        Ok(None) => (Err("no positive step during steady running".to_string()), Vec::new(), 0),
+        Ok(None) => (
+            Err("no positive step during steady running".to_string()),
+            Vec::new(),
+            0,
+        ),
         Ok(Some((fit, used, removed))) => {
             residuals_by_step.extend(step_residuals(set, &used, parameters));
             let r = fit.theta[0].exp();
@@ -426,12 +516,24 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
                 .iter()
                 .filter(|&&k| {
                     let step = &set.steps[k];
-                    on_ramp[step.segment][step.post.clone()].iter().sum::<f64>() >= MIN_BINDING_SECONDS
+                    on_ramp[step.segment][step.post.clone()].iter().sum::<f64>()
+                        >= MIN_BINDING_SECONDS
                 })
                 .count();
-            let standard_error = if binding >= MIN_BINDING_STEPS { r * fit.standard_error(0) } else { f64::INFINITY };
+            let standard_error = if binding >= MIN_BINDING_STEPS {
+                r * fit.standard_error(0)
+            } else {
+                f64::INFINITY
+            };
             ramp_binding = binding;
-            (Ok(Estimate { value: r, standard_error }), used, removed)
+            (
+                Ok(Estimate {
+                    value: r,
+                    standard_error,
+                }),
+                used,
+                removed,
+            )
         }
     };
 
@@ -444,20 +546,40 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
         (!all.is_empty()).then(|| stats::rms(&all))
     };
     let mut groups: Vec<GroupRmse> = Vec::new();
-    let mut keys: Vec<(Sign, i64)> = residuals_by_step.iter().map(|(k, _)| set.steps[*k].group()).collect();
+    let mut keys: Vec<(Sign, i64)> = residuals_by_step
+        .iter()
+        .map(|(k, _)| set.steps[*k].group())
+        .collect();
     keys.sort();
     keys.dedup();
     for key in keys {
-        let members: Vec<&(usize, Vec<f64>)> = residuals_by_step.iter().filter(|(k, _)| set.steps[*k].group() == key).collect();
-        let all: Vec<f64> = members.iter().flat_map(|(_, r)| r.iter().copied()).collect();
-        groups.push(GroupRmse { sign: key.0, size: key.1, steps: members.len(), rmse: stats::rms(&all) });
+        let members: Vec<&(usize, Vec<f64>)> = residuals_by_step
+            .iter()
+            .filter(|(k, _)| set.steps[*k].group() == key)
+            .collect();
+        let all: Vec<f64> = members
+            .iter()
+            .flat_map(|(_, r)| r.iter().copied())
+            .collect();
+        groups.push(GroupRmse {
+            sign: key.0,
+            size: key.1,
+            steps: members.len(),
+            rmse: stats::rms(&all),
+        });
     }
 
     let trajectory = options.trajectory.then(|| {
         let problem = StepResiduals::trajectory(set, parameters, options.settle);
         lsq::minimize(&problem, &Free::All.theta(&parameters), 50, TOLERANCE, true).map(|fit| {
             let p = Free::All.apply(&parameters, &fit.theta);
-            let values = [p.gain, p.tau_zero, p.tau_pole1, p.tau_pole2, p.ramp_up_limit];
+            let values = [
+                p.gain,
+                p.tau_zero,
+                p.tau_pole1,
+                p.tau_pole2,
+                p.ramp_up_limit,
+            ];
             let se: [f64; 5] = std::array::from_fn(|i| values[i] * fit.standard_error(i));
             (p, se, fit.rmse())
         })
@@ -468,7 +590,10 @@ pub fn fit_dynamics(set: &StepSet, base: Parameters, options: &DynamicsOptions) 
         tau_zero: estimate(1),
         tau_pole1: estimate(2),
         tau_pole2: estimate(3),
-        ratio_zero_pole2: Estimate { value: ratio, standard_error: ratio * ratio_se },
+        ratio_zero_pole2: Estimate {
+            value: ratio,
+            standard_error: ratio * ratio_se,
+        },
         correlation,
         ramp,
         rmse_negative: pooled(Some(Sign::Negative)).unwrap_or(f64::NAN),
@@ -494,12 +619,21 @@ fn step_residuals(set: &StepSet, steps: &[usize], params: Parameters) -> Vec<(us
     if !problem.residuals(&Free::Ramp.theta(&params), &mut r) {
         return Vec::new();
     }
-    problem.layout().into_iter().map(|(k, range)| (k, r[range].to_vec())).collect()
+    problem
+        .layout()
+        .into_iter()
+        .map(|(k, range)| (k, r[range].to_vec()))
+        .collect()
 }
 
 /// The ramp limit from the positive steps with the other parameters fixed: the fit, the
 /// steps used and the outliers removed (`None` without positive steps).
-fn fit_ramp(set: &StepSet, positive: &[usize], params: Parameters, options: &DynamicsOptions) -> Result<Option<(Fit, Vec<usize>, usize)>, String> {
+fn fit_ramp(
+    set: &StepSet,
+    positive: &[usize],
+    params: Parameters,
+    options: &DynamicsOptions,
+) -> Result<Option<(Fit, Vec<usize>, usize)>, String> {
     if positive.is_empty() {
         return Ok(None);
     }
@@ -515,7 +649,9 @@ fn ramp_rows(set: &StepSet, params: &Parameters) -> Result<Vec<Vec<f64>>, String
             let mut module = Module::new(*params, seg.setpoint[0]).map_err(|e| e.to_string())?;
             let mut rows = vec![0.0];
             for n in 1..seg.len() {
-                let report = module.step(seg.setpoint[n], seg.time[n] - seg.time[n - 1]).map_err(|e| e.to_string())?;
+                let report = module
+                    .step(seg.setpoint[n], seg.time[n] - seg.time[n - 1])
+                    .map_err(|e| e.to_string())?;
                 rows.push(report.ramp_time);
             }
             Ok(rows)
@@ -527,8 +663,14 @@ fn ramp_rows(set: &StepSet, params: &Parameters) -> Result<Vec<Vec<f64>>, String
 /// a positive step's pre-window.
 fn touches_ramp(set: &StepSet, on_ramp: &[Vec<f64>], k: usize) -> bool {
     let step = &set.steps[k];
-    let end = if step.sign() == Sign::Negative { step.post.end } else { step.post.start };
-    on_ramp[step.segment][step.pre.start..end].iter().any(|&seconds| seconds > 0.0)
+    let end = if step.sign() == Sign::Negative {
+        step.post.end
+    } else {
+        step.post.start
+    };
+    on_ramp[step.segment][step.pre.start..end]
+        .iter()
+        .any(|&seconds| seconds > 0.0)
 }
 
 /// Fits loosely, removes steps whose RMSE is an outlier, and fits tightly from the first
@@ -546,16 +688,29 @@ fn fit_with_outlier_removal(
         _ => "K, τz, τp1, τp2 fit (negative steps)",
     };
     let problem = StepResiduals::steps(set, steps, start, free);
-    let first = lsq::minimize(&problem, &free.theta(&start), 100, LOOSE_TOLERANCE, false).map_err(|e| format!("{what}: {e}"))?;
-    let per_step: Vec<(usize, f64)> =
-        problem.layout().into_iter().map(|(k, range)| (k, stats::rms(&first.residuals[range]))).collect();
+    let first = lsq::minimize(&problem, &free.theta(&start), 100, LOOSE_TOLERANCE, false)
+        .map_err(|e| format!("{what}: {e}"))?;
+    let per_step: Vec<(usize, f64)> = problem
+        .layout()
+        .into_iter()
+        .map(|(k, range)| (k, stats::rms(&first.residuals[range])))
+        .collect();
     let rmses: Vec<f64> = per_step.iter().map(|(_, r)| *r).collect();
     let limit = stats::median(&rmses) + sigmas * stats::robust_sigma(&rmses);
-    let kept: Vec<usize> = per_step.iter().filter(|(_, r)| *r <= limit).map(|(k, _)| *k).collect();
+    let kept: Vec<usize> = per_step
+        .iter()
+        .filter(|(_, r)| *r <= limit)
+        .map(|(k, _)| *k)
+        .collect();
     let removed = steps.len() - kept.len();
-    let (kept, removed) = if removed == 0 || kept.len() < 2 || rmses.len() < 5 { (steps.to_vec(), 0) } else { (kept, removed) };
+    let (kept, removed) = if removed == 0 || kept.len() < 2 || rmses.len() < 5 {
+        (steps.to_vec(), 0)
+    } else {
+        (kept, removed)
+    };
     let problem = StepResiduals::steps(set, &kept, start, free);
-    let second = lsq::minimize(&problem, &first.theta, 100, TOLERANCE, true).map_err(|e| format!("{what} without outliers: {e}"))?;
+    let second = lsq::minimize(&problem, &first.theta, 100, TOLERANCE, true)
+        .map_err(|e| format!("{what} without outliers: {e}"))?;
     Ok((second, kept, removed))
 }
 
@@ -578,15 +733,28 @@ fn initial_guess(set: &StepSet, steps: &[usize], base: Parameters) -> Result<Par
             }
         }
     }
-    let points: Vec<(f64, f64)> =
-        (1..=HORIZON).filter(|&l| count[l] > 0).map(|l| (l as f64, sum[l] / count[l] as f64)).collect();
+    let points: Vec<(f64, f64)> = (1..=HORIZON)
+        .filter(|&l| count[l] > 0)
+        .map(|l| (l as f64, sum[l] / count[l] as f64))
+        .collect();
     if points.len() < 8 {
         return Err("the negative steps hold too few samples for a start value".into());
     }
-    let grid = |lo: f64, hi: f64, n: usize| -> Vec<f64> { (0..n).map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64)).collect() };
-    let basis = |tau: f64| -> Vec<f64> { points.iter().map(|(t, _)| 1.0 - (-t / tau).exp()).collect() };
-    let fast: Vec<(f64, Vec<f64>)> = grid(0.2, 60.0, 25).into_iter().map(|t| (t, basis(t))).collect();
-    let slow: Vec<(f64, Vec<f64>)> = grid(5.0, 3000.0, 31).into_iter().map(|t| (t, basis(t))).collect();
+    let grid = |lo: f64, hi: f64, n: usize| -> Vec<f64> {
+        (0..n)
+            .map(|i| lo * (hi / lo).powf(i as f64 / (n - 1) as f64))
+            .collect()
+    };
+    let basis =
+        |tau: f64| -> Vec<f64> { points.iter().map(|(t, _)| 1.0 - (-t / tau).exp()).collect() };
+    let fast: Vec<(f64, Vec<f64>)> = grid(0.2, 60.0, 25)
+        .into_iter()
+        .map(|t| (t, basis(t)))
+        .collect();
+    let slow: Vec<(f64, Vec<f64>)> = grid(5.0, 3000.0, 31)
+        .into_iter()
+        .map(|t| (t, basis(t)))
+        .collect();
     let y: Vec<f64> = points.iter().map(|(_, g)| *g).collect();
     let mut best: Option<(f64, f64, f64, f64, f64)> = None;
     for (t1, f1) in &fast {
@@ -611,17 +779,26 @@ fn initial_guess(set: &StepSet, steps: &[usize], base: Parameters) -> Result<Par
             if c1 + c2 <= 0.0 {
                 continue;
             }
-            let rss: f64 = (0..y.len()).map(|i| (y[i] - c1 * f1[i] - c2 * f2[i]).powi(2)).sum();
+            let rss: f64 = (0..y.len())
+                .map(|i| (y[i] - c1 * f1[i] - c2 * f2[i]).powi(2))
+                .sum();
             if best.is_none_or(|b| rss < b.0) {
                 best = Some((rss, *t1, *t2, c1, c2));
             }
         }
     }
-    let (_, t1, t2, c1, c2) = best.ok_or("no start value matches the mean negative-step response")?;
+    let (_, t1, t2, c1, c2) =
+        best.ok_or("no start value matches the mean negative-step response")?;
     let gain = c1 + c2;
     let a = c1 / gain;
     let tau_zero = (t1 + a * (t2 - t1)).max(0.05 * t2);
-    Ok(Parameters { gain, tau_zero, tau_pole1: t1, tau_pole2: t2, ..base })
+    Ok(Parameters {
+        gain,
+        tau_zero,
+        tau_pole1: t1,
+        tau_pole2: t2,
+        ..base
+    })
 }
 
 /// Start value of r: the median initial slope (I(τ) − mean_W I)/τ over the first ≤ 6 s of the
@@ -636,7 +813,11 @@ fn initial_ramp(set: &StepSet, steps: &[usize], params: &Parameters) -> f64 {
             let step = &set.steps[k];
             let seg = &set.segments[step.segment];
             let t0 = seg.time[step.before];
-            let i = step.post.clone().take_while(|&i| seg.time[i] - t0 <= 6.0).last()?;
+            let i = step
+                .post
+                .clone()
+                .take_while(|&i| seg.time[i] - t0 <= 6.0)
+                .last()?;
             Some((seg.current[i] - step.pre_mean) / (seg.time[i] - t0))
         })
         .filter(|s| *s > 0.0)
@@ -659,7 +840,12 @@ mod tests {
     /// (row n's setpoint acts over (t[n−1], t[n]]).
     fn segment(truth: &Parameters, levels: &[(usize, f64)]) -> Segment {
         let mut module = Module::new(*truth, levels[0].1).unwrap();
-        let mut seg = Segment { source: "test".into(), time: vec![], setpoint: vec![], current: vec![] };
+        let mut seg = Segment {
+            source: "test".into(),
+            time: vec![],
+            setpoint: vec![],
+            current: vec![],
+        };
         let mut t = 0.0;
         for &(rows, u) in levels {
             for _ in 0..rows {
@@ -676,7 +862,15 @@ mod tests {
     }
 
     fn schedule() -> Vec<(usize, f64)> {
-        vec![(900, 80.0), (700, 65.0), (300, 95.0), (700, 70.0), (500, 60.0), (800, 100.0), (600, 75.0)]
+        vec![
+            (900, 80.0),
+            (700, 65.0),
+            (300, 95.0),
+            (700, 70.0),
+            (500, 60.0),
+            (800, 100.0),
+            (600, 75.0),
+        ]
     }
 
     #[test]
@@ -691,15 +885,28 @@ mod tests {
         let problem = StepResiduals::steps(&set, &all, truth, Free::All);
         let mut r = Vec::new();
         assert!(problem.residuals(&Free::All.theta(&truth), &mut r));
-        assert!(r.iter().all(|x| x.abs() < 1e-9), "max {}", r.iter().fold(0.0f64, |m, x| m.max(x.abs())));
+        assert!(
+            r.iter().all(|x| x.abs() < 1e-9),
+            "max {}",
+            r.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+        );
     }
 
     #[test]
     fn exact_jacobian_matches_differences_through_the_model() {
         let truth = CampaignSpec::test_truth();
         let set = find_steps(vec![segment(&truth, &schedule())], &StepOptions::default());
-        let negative: Vec<usize> = (0..set.steps.len()).filter(|&k| set.steps[k].sign() == Sign::Negative).collect();
-        let base = Parameters { ramp_up_limit: UNLIMITED_RAMP, gain: 0.5, tau_zero: 70.0, tau_pole1: 3.0, tau_pole2: 110.0, ..truth };
+        let negative: Vec<usize> = (0..set.steps.len())
+            .filter(|&k| set.steps[k].sign() == Sign::Negative)
+            .collect();
+        let base = Parameters {
+            ramp_up_limit: UNLIMITED_RAMP,
+            gain: 0.5,
+            tau_zero: 70.0,
+            tau_pole1: 3.0,
+            tau_pole2: 110.0,
+            ..truth
+        };
         let problem = StepResiduals::steps(&set, &negative, base, Free::Linear);
         let theta = Free::Linear.theta(&base);
         let exact = problem.exact_jacobian(&theta).unwrap();
@@ -715,7 +922,11 @@ mod tests {
             let scale = exact.column(j).amax();
             for i in 0..plus.len() {
                 let fd = (plus[i] - minus[i]) / (2.0 * h);
-                assert!((fd - exact[(i, j)]).abs() < 1e-6 * scale.max(1.0), "column {j} row {i}: {fd} vs {}", exact[(i, j)]);
+                assert!(
+                    (fd - exact[(i, j)]).abs() < 1e-6 * scale.max(1.0),
+                    "column {j} row {i}: {fd} vs {}",
+                    exact[(i, j)]
+                );
             }
         }
     }
@@ -724,7 +935,14 @@ mod tests {
     fn noise_free_steps_give_back_the_truth() {
         let truth = CampaignSpec::test_truth();
         let set = find_steps(vec![segment(&truth, &schedule())], &StepOptions::default());
-        let start = Parameters { gain: 0.45, tau_zero: 60.0, tau_pole1: 4.0, tau_pole2: 140.0, ramp_up_limit: 0.3, ..truth };
+        let start = Parameters {
+            gain: 0.45,
+            tau_zero: 60.0,
+            tau_pole1: 4.0,
+            tau_pole2: 140.0,
+            ramp_up_limit: 0.3,
+            ..truth
+        };
         let fit = fit_dynamics(&set, start, &DynamicsOptions::default()).unwrap();
         let p = fit.parameters;
         for (got, want) in [

@@ -38,7 +38,11 @@ pub struct HydrogenFit {
 
 /// Fits flow = c·I over samples with current above `running_current` [A]; needs current and
 /// hydrogen flow.
-pub fn fit_hydrogen(log: &ModuleLog, running_current: f64, cells: u32) -> Result<HydrogenFit, String> {
+pub fn fit_hydrogen(
+    log: &ModuleLog,
+    running_current: f64,
+    cells: u32,
+) -> Result<HydrogenFit, String> {
     if !log.has(Channel::H2Flow) {
         return Err("no h2_flow column".into());
     }
@@ -47,7 +51,10 @@ pub fn fit_hydrogen(log: &ModuleLog, running_current: f64, cells: u32) -> Result
     }
     let (mut n, mut sii, mut sif, mut sff) = (0usize, 0.0, 0.0, 0.0);
     for block in &log.blocks {
-        let (Some(current), Some(flow)) = (block.channel(Channel::Current), block.channel(Channel::H2Flow)) else {
+        let (Some(current), Some(flow)) = (
+            block.channel(Channel::Current),
+            block.channel(Channel::H2Flow),
+        ) else {
             continue;
         };
         for (i, f) in current.iter().zip(flow) {
@@ -60,13 +67,18 @@ pub fn fit_hydrogen(log: &ModuleLog, running_current: f64, cells: u32) -> Result
         }
     }
     if n < 2 {
-        return Err(format!("{n} running samples with hydrogen flow; at least 2 are needed"));
+        return Err(format!(
+            "{n} running samples with hydrogen flow; at least 2 are needed"
+        ));
     }
     let c = sif / sii;
     let rss = (sff - c * sif).max(0.0);
     let s = (rss / (n as f64 - 1.0)).sqrt();
     Ok(HydrogenFit {
-        coefficient: Estimate { value: c, standard_error: s / sii.sqrt() },
+        coefficient: Estimate {
+            value: c,
+            standard_error: s / sii.sqrt(),
+        },
         rmse: (rss / n as f64).sqrt(),
         points: n,
         cells,
@@ -81,7 +93,11 @@ mod tests {
     #[test]
     fn the_papers_coefficient_is_the_ideal_23_cell_stack() {
         // Table I: 9.6174 Nl/(h·A) for 23 cells.
-        assert!((ideal_coefficient(23) - 9.6174).abs() < 1e-3, "{}", ideal_coefficient(23));
+        assert!(
+            (ideal_coefficient(23) - 9.6174).abs() < 1e-3,
+            "{}",
+            ideal_coefficient(23)
+        );
         // The model description's unit Nl is 0.044615033415450964 mol.
         assert!((1.0 / MOLAR_VOLUME - 0.044_615_033_415_450_964).abs() < 1e-12);
     }

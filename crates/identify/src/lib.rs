@@ -216,7 +216,8 @@ pub fn fit_module(log: &ModuleLog, options: &FitOptions) -> ModuleFit {
     };
     lap("segments and steps", &mut timings);
 
-    let polarisation: Stage<PolarisationFit> = polarisation::fit_polarisation(log, &options.polarisation).into();
+    let polarisation: Stage<PolarisationFit> =
+        polarisation::fit_polarisation(log, &options.polarisation).into();
     lap("polarisation", &mut timings);
 
     let has_setpoint = log.has(columns::Channel::Setpoint);
@@ -289,7 +290,10 @@ pub fn spread(fits: &[ModuleFit]) -> BTreeMap<String, Spread> {
     let mut out = BTreeMap::new();
     for parameter in ModuleParameter::ALL {
         let (name, unit) = (parameter.name(), parameter.unit());
-        let values: Vec<f64> = fits.iter().filter_map(|f| f.estimates.get(name).map(|e| e.value)).collect();
+        let values: Vec<f64> = fits
+            .iter()
+            .filter_map(|f| f.estimates.get(name).map(|e| e.value))
+            .collect();
         if values.len() < 2 {
             continue;
         }
@@ -323,16 +327,30 @@ pub fn parameter_file(fits: &[ModuleFit]) -> ParameterFile {
                     let entry = ParameterEntry {
                         value: fit.parameters.get(parameter),
                         unit: parameter.unit().to_string(),
-                        standard_error: estimate.map(|e| e.standard_error).filter(|s| s.is_finite()),
+                        standard_error: estimate
+                            .map(|e| e.standard_error)
+                            .filter(|s| s.is_finite()),
                         poorly_determined: estimate.map(|_| fit.is_poorly_determined(name)),
-                        source: if estimate.is_some() { Source::Identified } else { Source::Default },
+                        source: if estimate.is_some() {
+                            Source::Identified
+                        } else {
+                            Source::Default
+                        },
                     };
                     (name.to_string(), entry)
                 })
                 .collect();
-            ModuleEntry { module: fit.log.id.clone(), parameters, statistics: report::statistics_json(fit) }
+            ModuleEntry {
+                module: fit.log.id.clone(),
+                parameters,
+                statistics: report::statistics_json(fit),
+            }
         })
         .collect();
     let spread = (fits.len() > 1).then(|| spread(fits));
-    ParameterFile { generator: format!("aem-identify {}", env!("CARGO_PKG_VERSION")), modules, spread }
+    ParameterFile {
+        generator: format!("aem-identify {}", env!("CARGO_PKG_VERSION")),
+        modules,
+        spread,
+    }
 }

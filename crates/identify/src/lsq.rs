@@ -50,12 +50,16 @@ pub struct Fit {
 impl Fit {
     /// Standard error of θᵢ (infinite when the covariance is unknown).
     pub fn standard_error(&self, i: usize) -> f64 {
-        self.covariance.as_ref().map_or(f64::INFINITY, |c| c[(i, i)].max(0.0).sqrt())
+        self.covariance
+            .as_ref()
+            .map_or(f64::INFINITY, |c| c[(i, i)].max(0.0).sqrt())
     }
 
     /// Correlation of θᵢ and θⱼ (NaN when the covariance is unknown).
     pub fn correlation(&self, i: usize, j: usize) -> f64 {
-        self.covariance.as_ref().map_or(f64::NAN, |c| c[(i, j)] / (c[(i, i)] * c[(j, j)]).sqrt())
+        self.covariance
+            .as_ref()
+            .map_or(f64::NAN, |c| c[(i, j)] / (c[(i, i)] * c[(j, j)]).sqrt())
     }
 
     /// Root mean square residual.
@@ -71,7 +75,13 @@ const FORWARD_STEP: f64 = 1e-7;
 /// Minimises Σ r(θ)² from `theta0`, with at most `patience`·(k + 1) residual evaluations and
 /// relative tolerance `tolerance` on Σ r² and θ (MINPACK's ftol and xtol); the covariance is
 /// computed when `with_covariance`.
-pub fn minimize<R: Residuals>(model: &R, theta0: &[f64], patience: usize, tolerance: f64, with_covariance: bool) -> Result<Fit, String> {
+pub fn minimize<R: Residuals>(
+    model: &R,
+    theta0: &[f64],
+    patience: usize,
+    tolerance: f64,
+    with_covariance: bool,
+) -> Result<Fit, String> {
     let k = model.parameters();
     if theta0.len() != k {
         return Err(format!("{} start values for {k} parameters", theta0.len()));
@@ -81,9 +91,16 @@ pub fn minimize<R: Residuals>(model: &R, theta0: &[f64], patience: usize, tolera
         return Err(format!("the start point {theta0:?} is not admissible"));
     }
     if start.len() <= k {
-        return Err(format!("{} residuals are too few for {k} parameters", start.len()));
+        return Err(format!(
+            "{} residuals are too few for {k} parameters",
+            start.len()
+        ));
     }
-    let problem = Problem { model, theta: DVector::from_column_slice(theta0), residuals: Some(DVector::from_vec(start)) };
+    let problem = Problem {
+        model,
+        theta: DVector::from_column_slice(theta0),
+        residuals: Some(DVector::from_vec(start)),
+    };
     let solver = LevenbergMarquardt::new()
         .with_patience(patience)
         .with_ftol(tolerance)
@@ -91,25 +108,44 @@ pub fn minimize<R: Residuals>(model: &R, theta0: &[f64], patience: usize, tolera
         .with_gtol(1e-14);
     let (problem, report) = solver.minimize(problem);
     let termination = format!("{:?}", report.termination);
-    if report.termination.was_usage_issue() && !matches!(report.termination, levenberg_marquardt::TerminationReason::NoImprovementPossible(_)) {
+    if report.termination.was_usage_issue()
+        && !matches!(
+            report.termination,
+            levenberg_marquardt::TerminationReason::NoImprovementPossible(_)
+        )
+    {
         return Err(format!("optimiser stopped: {termination}"));
     }
     let theta: Vec<f64> = problem.theta.iter().copied().collect();
     // The adapter holds the residuals at its current θ, the optimum.
     let residuals: Vec<f64> = match problem.residuals {
         Some(r) => r.iter().copied().collect(),
-        None => return Err(format!("optimiser stopped at an inadmissible point ({termination})")),
+        None => {
+            return Err(format!(
+                "optimiser stopped at an inadmissible point ({termination})"
+            ))
+        }
     };
     let rss: f64 = residuals.iter().map(|r| r * r).sum();
     if !rss.is_finite() {
-        return Err(format!("non-finite residuals at the optimum ({termination})"));
+        return Err(format!(
+            "non-finite residuals at the optimum ({termination})"
+        ));
     }
     let covariance = if with_covariance {
-        jacobian(model, &theta, &residuals).and_then(|j| covariance(&j, &residuals, model.clusters()))
+        jacobian(model, &theta, &residuals)
+            .and_then(|j| covariance(&j, &residuals, model.clusters()))
     } else {
         None
     };
-    Ok(Fit { theta, residuals, rss, covariance, evaluations: report.number_of_evaluations, termination })
+    Ok(Fit {
+        theta,
+        residuals,
+        rss,
+        covariance,
+        evaluations: report.number_of_evaluations,
+        termination,
+    })
 }
 
 /// Covariance of θ at the optimum from the Jacobian J and residuals r.
@@ -117,7 +153,11 @@ pub fn minimize<R: Residuals>(model: &R, theta0: &[f64], patience: usize, tolera
 /// Independent residuals: s²(JᵀJ)⁻¹ with s² = Σr²/(N − k). With clusters c (G of them) whose
 /// errors may be correlated inside (a step's response shares the noise of its pre-step mean),
 /// the cluster-robust sandwich (JᵀJ)⁻¹ (Σ_c g_c g_cᵀ) (JᵀJ)⁻¹ · G/(G − 1), g_c = J_cᵀ r_c.
-fn covariance(j: &DMatrix<f64>, r: &[f64], clusters: Option<Vec<Range<usize>>>) -> Option<DMatrix<f64>> {
+fn covariance(
+    j: &DMatrix<f64>,
+    r: &[f64],
+    clusters: Option<Vec<Range<usize>>>,
+) -> Option<DMatrix<f64>> {
     let k = j.ncols();
     let bread = (j.transpose() * j).try_inverse()?;
     match clusters {
@@ -178,7 +218,10 @@ impl<R: Residuals> LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_, R> {
     fn set_params(&mut self, x: &DVector<f64>) {
         self.theta.copy_from(x);
         let mut out = Vec::new();
-        self.residuals = self.model.residuals(x.as_slice(), &mut out).then(|| DVector::from_vec(out));
+        self.residuals = self
+            .model
+            .residuals(x.as_slice(), &mut out)
+            .then(|| DVector::from_vec(out));
     }
 
     fn params(&self) -> DVector<f64> {
@@ -211,7 +254,12 @@ mod tests {
         }
         fn residuals(&self, theta: &[f64], out: &mut Vec<f64>) -> bool {
             out.clear();
-            out.extend(self.t.iter().zip(&self.y).map(|(t, y)| y - theta[0] * (-t / theta[1]).exp()));
+            out.extend(
+                self.t
+                    .iter()
+                    .zip(&self.y)
+                    .map(|(t, y)| y - theta[0] * (-t / theta[1]).exp()),
+            );
             true
         }
     }
@@ -219,7 +267,11 @@ mod tests {
     #[test]
     fn recovers_an_exponential_and_its_uncertainty() {
         let t: Vec<f64> = (0..50).map(f64::from).collect();
-        let y = t.iter().enumerate().map(|(i, t)| 3.0 * (-t / 7.0).exp() + if i % 2 == 0 { 0.01 } else { -0.01 }).collect();
+        let y = t
+            .iter()
+            .enumerate()
+            .map(|(i, t)| 3.0 * (-t / 7.0).exp() + if i % 2 == 0 { 0.01 } else { -0.01 })
+            .collect();
         let fit = minimize(&Decay { t, y }, &[1.0, 2.0], 200, 1e-12, true).unwrap();
         assert!((fit.theta[0] - 3.0).abs() < 0.01, "{:?}", fit.theta);
         assert!((fit.theta[1] - 7.0).abs() < 0.05, "{:?}", fit.theta);

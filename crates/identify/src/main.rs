@@ -23,14 +23,18 @@ use clap::{Args, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 use aem_identify::columns::ColumnMap;
-use aem_model::parameter_file::ParameterFile;
 use aem_identify::read::{self, DialectChoice, ModuleLog, ReadOptions};
 use aem_identify::synthetic::{self, CampaignSpec, CsvOptions};
 use aem_identify::validate::{self, ValidateOptions};
 use aem_identify::{self as id, Error, FitOptions};
+use aem_model::parameter_file::ParameterFile;
 
 #[derive(Parser)]
-#[command(name = "aem-identify", version, about = "Identify the AEM electrolyser model's parameters from operational data")]
+#[command(
+    name = "aem-identify",
+    version,
+    about = "Identify the AEM electrolyser model's parameters from operational data"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -233,18 +237,31 @@ impl OutputFile {
     fn reserve(path: &Path) -> Result<OutputFile, Error> {
         let existed = path.exists();
         if path.is_dir() {
-            return Err(Error::Io { path: path.into(), message: "is a directory, not a file".into() });
+            return Err(Error::Io {
+                path: path.into(),
+                message: "is a directory, not a file".into(),
+            });
         }
         OpenOptions::new()
             .append(true)
             .create(true)
             .open(path)
-            .map_err(|e| Error::Io { path: path.into(), message: format!("cannot write here: {e}") })?;
-        Ok(OutputFile { path: path.into(), created: !existed, written: false })
+            .map_err(|e| Error::Io {
+                path: path.into(),
+                message: format!("cannot write here: {e}"),
+            })?;
+        Ok(OutputFile {
+            path: path.into(),
+            created: !existed,
+            written: false,
+        })
     }
 
     fn write(&mut self, contents: &str) -> Result<(), Error> {
-        std::fs::write(&self.path, contents).map_err(|e| Error::Io { path: self.path.clone(), message: e.to_string() })?;
+        std::fs::write(&self.path, contents).map_err(|e| Error::Io {
+            path: self.path.clone(),
+            message: e.to_string(),
+        })?;
         self.written = true;
         Ok(())
     }
@@ -272,7 +289,10 @@ fn progress(len: u64, message: &str) -> ProgressBar {
 
 fn read_options(input: &InputArgs, module: &str) -> Result<ReadOptions, Error> {
     if !(input.max_gap > 0.0) {
-        return Err(Error::Input(format!("--max-gap {} must be > 0", input.max_gap)));
+        return Err(Error::Input(format!(
+            "--max-gap {} must be > 0",
+            input.max_gap
+        )));
     }
     Ok(ReadOptions {
         columns: ColumnMap::with_mappings(&input.columns).map_err(Error::Input)?,
@@ -299,7 +319,10 @@ fn read_all(sets: &[(String, Vec<PathBuf>)], input: &InputArgs) -> Result<Vec<Mo
         let bar_ref = &bar;
         for log in read::read_files(files, &options, &|| bar_ref.inc(1))? {
             if logs.iter().any(|l| l.id == log.id) {
-                return Err(Error::Input(format!("module `{}` appears in two file sets", log.id)));
+                return Err(Error::Input(format!(
+                    "module `{}` appears in two file sets",
+                    log.id
+                )));
             }
             logs.push(log);
         }
@@ -311,16 +334,26 @@ fn read_all(sets: &[(String, Vec<PathBuf>)], input: &InputArgs) -> Result<Vec<Mo
         for reason in read::BadRow::ALL {
             let count: u64 = logs.iter().map(|l| l.bad.count(reason)).sum();
             if let Some(first) = logs.iter().find_map(|l| l.bad.first(reason)) {
-                reasons.push(format!("{} {count}, first {}:{}", reason.label(), first.path.display(), first.line));
+                reasons.push(format!(
+                    "{} {count}, first {}:{}",
+                    reason.label(),
+                    first.path.display(),
+                    first.line
+                ));
             }
         }
-        let dialects: Vec<String> = logs.iter().flat_map(|l| &l.dialects).map(ToString::to_string).collect();
+        let dialects: Vec<String> = logs
+            .iter()
+            .flat_map(|l| &l.dialects)
+            .map(ToString::to_string)
+            .collect();
         let mut message = format!("no usable row in the input ({read} rows read");
         if !reasons.is_empty() {
             message += &format!(", skipped: {}", reasons.join("; "));
         }
         if let Some(dialect) = dialects.first() {
-            message += &format!("; read as {dialect}: if that is wrong, give --separator and --decimal");
+            message +=
+                &format!("; read as {dialect}: if that is wrong, give --separator and --decimal");
         }
         return Err(Error::Input(message + ")"));
     }
@@ -344,7 +377,9 @@ fn fit(args: FitArgs) -> Result<(), Error> {
         }
     }
     if sets.is_empty() {
-        return Err(Error::Input("no input: give CSV files or directories, or --module ID=PATH".into()));
+        return Err(Error::Input(
+            "no input: give CSV files or directories, or --module ID=PATH".into(),
+        ));
     }
     let mut options = FitOptions::default();
     options.steps.running_current = args.input.running_current;
@@ -365,8 +400,15 @@ fn fit(args: FitArgs) -> Result<(), Error> {
     if let Some(i) = args.nominal_current {
         options.base.nominal_current = i;
     }
-    options.base.validate().map_err(|e| Error::Input(format!("--nominal-current: {e}")))?;
-    let mut output = args.output.as_deref().map(OutputFile::reserve).transpose()?;
+    options
+        .base
+        .validate()
+        .map_err(|e| Error::Input(format!("--nominal-current: {e}")))?;
+    let mut output = args
+        .output
+        .as_deref()
+        .map(OutputFile::reserve)
+        .transpose()?;
     for (name, v) in [
         ("--settle", args.input.settle),
         ("--pre-window", args.pre_window),
@@ -378,7 +420,9 @@ fn fit(args: FitArgs) -> Result<(), Error> {
         ("--poorly-determined", args.poorly_determined),
     ] {
         if !(v.is_finite() && v >= 0.0) {
-            return Err(Error::Input(format!("{name} {v} must be a finite number >= 0")));
+            return Err(Error::Input(format!(
+                "{name} {v} must be a finite number >= 0"
+            )));
         }
     }
 
@@ -396,7 +440,8 @@ fn fit(args: FitArgs) -> Result<(), Error> {
     let file = id::parameter_file(&fits);
     let report = id::report::render(&fits, file.spread.as_ref());
     if let Some(output) = &mut output {
-        let text = serde_json::to_string_pretty(&file).map_err(|e| Error::Input(format!("JSON: {e}")))?;
+        let text =
+            serde_json::to_string_pretty(&file).map_err(|e| Error::Input(format!("JSON: {e}")))?;
         output.write(&(text + "\n"))?;
     }
     say(&report)?;
@@ -405,14 +450,28 @@ fn fit(args: FitArgs) -> Result<(), Error> {
     }
     if args.timings {
         let rows: u64 = logs.iter().map(|l| l.rows_read).sum();
-        let mut text = format!("timing: read {:>8.1} ms  ({rows} rows)\n", read_time.as_secs_f64() * 1e3);
+        let mut text = format!(
+            "timing: read {:>8.1} ms  ({rows} rows)\n",
+            read_time.as_secs_f64() * 1e3
+        );
         for fit in &fits {
             for (stage, d) in &fit.timings {
-                text += &format!("timing: {:<20} {:>8.1} ms  (module {})\n", stage, d.as_secs_f64() * 1e3, fit.log.id);
+                text += &format!(
+                    "timing: {:<20} {:>8.1} ms  (module {})\n",
+                    stage,
+                    d.as_secs_f64() * 1e3,
+                    fit.log.id
+                );
             }
         }
-        text += &format!("timing: report and JSON {:>8.1} ms\n", output_start.elapsed().as_secs_f64() * 1e3);
-        text += &format!("timing: total {:>8.1} ms\n", start.elapsed().as_secs_f64() * 1e3);
+        text += &format!(
+            "timing: report and JSON {:>8.1} ms\n",
+            output_start.elapsed().as_secs_f64() * 1e3
+        );
+        text += &format!(
+            "timing: total {:>8.1} ms\n",
+            start.elapsed().as_secs_f64() * 1e3
+        );
         say_err(&text);
     }
     Ok(())
@@ -424,48 +483,91 @@ fn run_validate(args: ValidateArgs) -> Result<(), Error> {
     }
     let mut csv = args.csv.as_deref().map(OutputFile::reserve).transpose()?;
     let file = ParameterFile::load(&args.params)?;
-    let entry = file.module(args.module.as_deref()).map_err(|e| Error::Input(format!("{}: {e}", args.params.display())))?;
-    let params = entry.parameters().map_err(|e| Error::Input(format!("{}: {e}", args.params.display())))?;
+    let entry = file
+        .module(args.module.as_deref())
+        .map_err(|e| Error::Input(format!("{}: {e}", args.params.display())))?;
+    let params = entry
+        .parameters()
+        .map_err(|e| Error::Input(format!("{}: {e}", args.params.display())))?;
     let logs = read_all(&[(entry.module.clone(), args.days.clone())], &args.input)?;
     let log = match logs.iter().find(|l| l.id == entry.module) {
         Some(l) => l,
         None if logs.len() == 1 => &logs[0],
         None => {
             let ids: Vec<&str> = logs.iter().map(|l| l.id.as_str()).collect();
-            return Err(Error::Input(format!("the day holds modules {} but not `{}`", ids.join(", "), entry.module)));
+            return Err(Error::Input(format!(
+                "the day holds modules {} but not `{}`",
+                ids.join(", "),
+                entry.module
+            )));
         }
     };
-    let options = ValidateOptions { running_current: args.input.running_current, settle: args.input.settle };
+    let options = ValidateOptions {
+        running_current: args.input.running_current,
+        settle: args.input.settle,
+    };
     let (v, trace) = validate::validate(&params, log, &options)?;
     if let Some(csv) = &mut csv {
         validate::write_trace(&csv.path, &trace)?;
         csv.written = true;
     }
-    let days = args.days.iter().map(|d| d.display().to_string()).collect::<Vec<_>>().join(", ");
-    let opt = |x: Option<f64>, unit: &str| x.map_or("not measured".to_string(), |x| format!("{x:>10.4} {unit}"));
-    let mut report = format!("Validation of module {} on {days} ({} running segments)\n", entry.module, v.segments);
-    report += &format!("  rows compared: {} of {} running ({} s after each start-up or gap)\n", v.compared_rows, v.running_rows, args.input.settle);
-    report += &format!("  RMSE current   {:>10.4} A   (including start-ups {:.4} A)\n", v.current, v.current_with_startups);
+    let days = args
+        .days
+        .iter()
+        .map(|d| d.display().to_string())
+        .collect::<Vec<_>>()
+        .join(", ");
+    let opt = |x: Option<f64>, unit: &str| {
+        x.map_or("not measured".to_string(), |x| format!("{x:>10.4} {unit}"))
+    };
+    let mut report = format!(
+        "Validation of module {} on {days} ({} running segments)\n",
+        entry.module, v.segments
+    );
+    report += &format!(
+        "  rows compared: {} of {} running ({} s after each start-up or gap)\n",
+        v.compared_rows, v.running_rows, args.input.settle
+    );
+    report += &format!(
+        "  RMSE current   {:>10.4} A   (including start-ups {:.4} A)\n",
+        v.current, v.current_with_startups
+    );
     report += &format!("  RMSE voltage   {}\n", opt(v.voltage, "V"));
     report += &format!("  RMSE power     {}\n", opt(v.power, "W"));
     report += &format!("  RMSE hydrogen  {}\n", opt(v.h2_flow, "Nl/h"));
     if let Some(csv) = &csv {
         let path = csv.path.display();
-        report += &format!("wrote {path} (plot: python -m aem_electrolyser.plot_validation {path} out.png)\n");
+        report += &format!(
+            "wrote {path} (plot: python -m aem_electrolyser.plot_validation {path} out.png)\n"
+        );
     }
     say(&report)
 }
 
 fn synthesize(args: SynthesizeArgs) -> Result<(), Error> {
-    std::fs::create_dir_all(&args.dir).map_err(|e| Error::Io { path: args.dir.clone(), message: format!("cannot write here: {e}") })?;
-    let spec = CampaignSpec { seed: args.seed, running_hours: args.hours, ..CampaignSpec::default() };
+    std::fs::create_dir_all(&args.dir).map_err(|e| Error::Io {
+        path: args.dir.clone(),
+        message: format!("cannot write here: {e}"),
+    })?;
+    let spec = CampaignSpec {
+        seed: args.seed,
+        running_hours: args.hours,
+        ..CampaignSpec::default()
+    };
     let days: Vec<synthetic::Day> = (args.skip..args.skip + args.days)
         .map(|d| synthetic::generate_day(&spec, d))
         .collect::<Result<_, _>>()
         .map_err(|e| Error::Input(e.to_string()))?;
-    let options = CsvOptions { rfc3339: args.rfc3339, broken: args.broken, seed: args.seed, ..CsvOptions::default() };
-    let written = synthetic::write_campaign(&args.dir, &days, &options)
-        .map_err(|e| Error::Io { path: args.dir.clone(), message: e.to_string() })?;
+    let options = CsvOptions {
+        rfc3339: args.rfc3339,
+        broken: args.broken,
+        seed: args.seed,
+        ..CsvOptions::default()
+    };
+    let written = synthetic::write_campaign(&args.dir, &days, &options).map_err(|e| Error::Io {
+        path: args.dir.clone(),
+        message: e.to_string(),
+    })?;
     let rows: u64 = written.iter().map(|(_, i)| i.rows).sum();
     let p = spec.truth;
     say(&format!(

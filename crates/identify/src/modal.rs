@@ -69,12 +69,20 @@ impl Modal<'_> {
     /// Appends the residuals of the plan's steps to `out` (cleared first) and, if `jac` holds
     /// 2n vectors, their derivatives with respect to (ln K, ln τ₁…ln τₙ, w₁…wₙ₋₁). Segments
     /// are split over two threads. False for a non-finite or non-positive parameter.
-    pub fn residuals(&self, set: &StepSet, plan: &[PlanEntry], out: &mut Vec<f64>, jac: Option<&mut [Vec<f64>]>) -> bool {
+    pub fn residuals(
+        &self,
+        set: &StepSet,
+        plan: &[PlanEntry],
+        out: &mut Vec<f64>,
+        jac: Option<&mut [Vec<f64>]>,
+    ) -> bool {
         out.clear();
         let n = self.taus.len();
         if !(1..=3).contains(&n)
             || self.weights.len() != n
-            || !(self.gain.is_finite() && self.taus.iter().all(|t| t.is_finite() && *t > 0.0) && self.weights.iter().all(|w| w.is_finite()))
+            || !(self.gain.is_finite()
+                && self.taus.iter().all(|t| t.is_finite() && *t > 0.0)
+                && self.weights.iter().all(|w| w.is_finite()))
         {
             return false;
         }
@@ -87,7 +95,9 @@ impl Modal<'_> {
             if tail.is_empty() {
                 self.pass(set, head, out, want.then_some(&mut head_jac[..]));
             } else {
-                scope.spawn(|| self.pass(set, tail, &mut tail_out, want.then_some(&mut tail_jac[..])));
+                scope.spawn(|| {
+                    self.pass(set, tail, &mut tail_out, want.then_some(&mut tail_jac[..]))
+                });
                 self.pass(set, head, out, want.then_some(&mut head_jac[..]));
             }
         });
@@ -102,7 +112,13 @@ impl Modal<'_> {
     }
 
     /// One thread's share, dispatched on the order so that the per-row loops unroll.
-    fn pass(&self, set: &StepSet, plan: &[PlanEntry], out: &mut Vec<f64>, jac: Option<&mut [Vec<f64>]>) {
+    fn pass(
+        &self,
+        set: &StepSet,
+        plan: &[PlanEntry],
+        out: &mut Vec<f64>,
+        jac: Option<&mut [Vec<f64>]>,
+    ) {
         match self.taus.len() {
             1 => self.pass_n::<1>(set, plan, out, jac),
             2 => self.pass_n::<2>(set, plan, out, jac),
@@ -113,7 +129,13 @@ impl Modal<'_> {
     /// Simulates each segment once and streams the residuals (and derivative columns) of its
     /// steps, whose pre-step windows and responses are each disjoint and ordered in time, so
     /// no per-row buffer is kept.
-    fn pass_n<const N: usize>(&self, set: &StepSet, plan: &[PlanEntry], out: &mut Vec<f64>, mut jac: Option<&mut [Vec<f64>]>) {
+    fn pass_n<const N: usize>(
+        &self,
+        set: &StepSet,
+        plan: &[PlanEntry],
+        out: &mut Vec<f64>,
+        mut jac: Option<&mut [Vec<f64>]>,
+    ) {
         let (lo, hi) = self.window;
         let taus: [f64; N] = std::array::from_fn(|i| self.taus[i]);
         let w: [f64; N] = std::array::from_fn(|i| self.weights[i]);

@@ -57,7 +57,10 @@ pub struct PolarisationFit {
 }
 
 /// Fits V = V0 + R·I; needs current and voltage.
-pub fn fit_polarisation(log: &ModuleLog, options: &PolarisationOptions) -> Result<PolarisationFit, String> {
+pub fn fit_polarisation(
+    log: &ModuleLog,
+    options: &PolarisationOptions,
+) -> Result<PolarisationFit, String> {
     if !log.has(Channel::Voltage) {
         return Err("no voltage column".into());
     }
@@ -74,7 +77,10 @@ pub fn fit_polarisation(log: &ModuleLog, options: &PolarisationOptions) -> Resul
     let (mut si, mut sv, mut sii, mut siv, mut svv) = (0.0, 0.0, 0.0, 0.0, 0.0);
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for block in &log.blocks {
-        let (Some(current), Some(voltage)) = (block.channel(Channel::Current), block.channel(Channel::Voltage)) else {
+        let (Some(current), Some(voltage)) = (
+            block.channel(Channel::Current),
+            block.channel(Channel::Voltage),
+        ) else {
             continue;
         };
         let temperature = block.channel(Channel::Temperature);
@@ -84,8 +90,10 @@ pub fn fit_polarisation(log: &ModuleLog, options: &PolarisationOptions) -> Resul
                 continue;
             }
             candidates += 1;
-            if temperature.is_some_and(|t| (t[r] - options.temperature).abs() > options.temperature_tolerance)
-                || pressure.is_some_and(|p| (p[r] - options.pressure).abs() > options.pressure_tolerance)
+            if temperature
+                .is_some_and(|t| (t[r] - options.temperature).abs() > options.temperature_tolerance)
+                || pressure
+                    .is_some_and(|p| (p[r] - options.pressure).abs() > options.pressure_tolerance)
             {
                 continue;
             }
@@ -110,7 +118,9 @@ pub fn fit_polarisation(log: &ModuleLog, options: &PolarisationOptions) -> Resul
     let nf = n as f64;
     let sxx = sii - si * si / nf;
     if sxx <= 1e-12 * sii.max(1.0) {
-        return Err(format!("all {n} nominal samples have the same current; R cannot be fitted"));
+        return Err(format!(
+            "all {n} nominal samples have the same current; R cannot be fitted"
+        ));
     }
     let sxy = siv - si * sv / nf;
     let r = sxy / sxx;
@@ -122,8 +132,14 @@ pub fn fit_polarisation(log: &ModuleLog, options: &PolarisationOptions) -> Resul
     let mean_current = mean_i + shift_i;
     let v0 = v0_shifted + shift_v - r * shift_i;
     Ok(PolarisationFit {
-        voltage_intercept: Estimate { value: v0, standard_error: s * (1.0 / nf + mean_current * mean_current / sxx).sqrt() },
-        ohmic_resistance: Estimate { value: r, standard_error: s / sxx.sqrt() },
+        voltage_intercept: Estimate {
+            value: v0,
+            standard_error: s * (1.0 / nf + mean_current * mean_current / sxx).sqrt(),
+        },
+        ohmic_resistance: Estimate {
+            value: r,
+            standard_error: s / sxx.sqrt(),
+        },
         rmse: (rss / nf).sqrt(),
         points: n,
         candidates,

@@ -16,8 +16,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use super::columns::{Channel, ColumnMap};
-pub use super::dialect::{DecimalMark, Dialect, DialectChoice};
 use super::dialect::SAMPLE_LINES;
+pub use super::dialect::{DecimalMark, Dialect, DialectChoice};
 use super::error::{Error, Result};
 
 /// Why a data row was skipped.
@@ -102,7 +102,10 @@ impl BadRowCounts {
     fn add(&mut self, reason: BadRow, path: &Path, line: u64) {
         self.counts[reason as usize] += 1;
         if self.first[reason as usize].is_none() {
-            self.first[reason as usize] = Some(Location { path: path.to_path_buf(), line });
+            self.first[reason as usize] = Some(Location {
+                path: path.to_path_buf(),
+                line,
+            });
         }
     }
 
@@ -206,7 +209,12 @@ pub struct ReadOptions {
 
 impl Default for ReadOptions {
     fn default() -> Self {
-        ReadOptions { columns: ColumnMap::default(), max_gap: 10.0, module: "module".into(), dialect: DialectChoice::default() }
+        ReadOptions {
+            columns: ColumnMap::default(),
+            max_gap: 10.0,
+            module: "module".into(),
+            dialect: DialectChoice::default(),
+        }
     }
 }
 
@@ -219,10 +227,15 @@ pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
             let mut found: Vec<PathBuf> = std::fs::read_dir(path)
                 .map_err(|e| io_error(path, e))?
                 .filter_map(|entry| entry.ok().map(|e| e.path()))
-                .filter(|p| p.is_file() && p.extension().is_some_and(|x| x.eq_ignore_ascii_case("csv")))
+                .filter(|p| {
+                    p.is_file() && p.extension().is_some_and(|x| x.eq_ignore_ascii_case("csv"))
+                })
                 .collect();
             if found.is_empty() {
-                return Err(Error::Input(format!("{}: directory holds no .csv file", path.display())));
+                return Err(Error::Input(format!(
+                    "{}: directory holds no .csv file",
+                    path.display()
+                )));
             }
             found.sort();
             files.extend(found);
@@ -238,10 +251,18 @@ pub fn expand_inputs(paths: &[PathBuf]) -> Result<Vec<PathBuf>> {
 
 /// Reads `files` (in parallel) and merges them per module, in order of module id.
 /// `on_file` is called once per file read (for a progress bar).
-pub fn read_files(files: &[PathBuf], options: &ReadOptions, on_file: &(dyn Fn() + Sync)) -> Result<Vec<ModuleLog>> {
-    let workers = std::thread::available_parallelism().map_or(1, |n| n.get()).min(files.len()).max(1);
+pub fn read_files(
+    files: &[PathBuf],
+    options: &ReadOptions,
+    on_file: &(dyn Fn() + Sync),
+) -> Result<Vec<ModuleLog>> {
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(files.len())
+        .max(1);
     let next = AtomicUsize::new(0);
-    let results: Mutex<Vec<Option<Result<Vec<ModuleLog>>>>> = Mutex::new((0..files.len()).map(|_| None).collect());
+    let results: Mutex<Vec<Option<Result<Vec<ModuleLog>>>>> =
+        Mutex::new((0..files.len()).map(|_| None).collect());
     std::thread::scope(|scope| {
         for _ in 0..workers {
             scope.spawn(|| loop {
@@ -255,10 +276,13 @@ pub fn read_files(files: &[PathBuf], options: &ReadOptions, on_file: &(dyn Fn() 
             });
         }
     });
-    let slots = results.into_inner().map_err(|_| Error::Input("a reader thread failed".into()))?;
+    let slots = results
+        .into_inner()
+        .map_err(|_| Error::Input("a reader thread failed".into()))?;
     let mut by_module: Vec<ModuleLog> = Vec::new();
     for (i, slot) in slots.into_iter().enumerate() {
-        let logs = slot.ok_or_else(|| Error::Input(format!("{}: not read", files[i].display())))??;
+        let logs =
+            slot.ok_or_else(|| Error::Input(format!("{}: not read", files[i].display())))??;
         for log in logs {
             match by_module.iter_mut().find(|m| m.id == log.id) {
                 Some(m) => m.merge(log),
@@ -283,7 +307,9 @@ pub fn read_file(path: &Path, options: &ReadOptions) -> Result<Vec<ModuleLog>> {
 fn read_head(source: &mut impl BufRead, path: &Path) -> Result<Vec<u8>> {
     let mut head = Vec::new();
     for _ in 0..=SAMPLE_LINES {
-        let n = source.read_until(b'\n', &mut head).map_err(|e| io_error(path, e))?;
+        let n = source
+            .read_until(b'\n', &mut head)
+            .map_err(|e| io_error(path, e))?;
         if n == 0 {
             break;
         }
@@ -298,13 +324,21 @@ pub fn read_csv(source: impl Read, path: &Path, options: &ReadOptions) -> Result
 }
 
 /// [`read_csv`], also giving the dialect the file was read with.
-pub fn read_csv_with_dialect(source: impl Read, path: &Path, options: &ReadOptions) -> Result<(Vec<ModuleLog>, Dialect)> {
+pub fn read_csv_with_dialect(
+    source: impl Read,
+    path: &Path,
+    options: &ReadOptions,
+) -> Result<(Vec<ModuleLog>, Dialect)> {
     let mut source = BufReader::new(source);
     let mut head = read_head(&mut source, path)?;
     let dialect = options
         .dialect
         .resolve(&head)
-        .map_err(|message| Error::Content { path: path.into(), line: 1, message })?;
+        .map_err(|message| Error::Content {
+            path: path.into(),
+            line: 1,
+            message,
+        })?;
     if head.starts_with(b"\xef\xbb\xbf") {
         head.drain(..3); // A UTF-8 byte order mark is no part of the first column's name.
     }
@@ -314,11 +348,20 @@ pub fn read_csv_with_dialect(source: impl Read, path: &Path, options: &ReadOptio
         .delimiter(dialect.separator)
         .from_reader(std::io::Cursor::new(head).chain(source));
     let mut record = csv::ByteRecord::new();
-    let header_ok = reader.read_byte_record(&mut record).map_err(|e| csv_error(path, &e))?;
+    let header_ok = reader
+        .read_byte_record(&mut record)
+        .map_err(|e| csv_error(path, &e))?;
     if !header_ok {
-        return Err(Error::Content { path: path.into(), line: 1, message: "empty file: no header row".into() });
+        return Err(Error::Content {
+            path: path.into(),
+            line: 1,
+            message: "empty file: no header row".into(),
+        });
     }
-    let header: Vec<String> = record.iter().map(|f| String::from_utf8_lossy(f).trim().to_string()).collect();
+    let header: Vec<String> = record
+        .iter()
+        .map(|f| String::from_utf8_lossy(f).trim().to_string())
+        .collect();
     let header_refs: Vec<&str> = header.iter().map(String::as_str).collect();
     let index = options.columns.locate(&header_refs);
     for required in [Channel::Time, Channel::Current] {
@@ -346,7 +389,14 @@ pub fn read_csv_with_dialect(source: impl Read, path: &Path, options: &ReadOptio
         .filter_map(|(slot, c)| index[*c as usize].map(|col| (slot, col)))
         .collect();
     let present: [bool; 6] = std::array::from_fn(|slot| measured.iter().any(|&(s, _)| s == slot));
-    let needed = measured.iter().map(|&(_, c)| c).chain([time_col]).chain(module_col).max().unwrap_or(0) + 1;
+    let needed = measured
+        .iter()
+        .map(|&(_, c)| c)
+        .chain([time_col])
+        .chain(module_col)
+        .max()
+        .unwrap_or(0)
+        + 1;
 
     let mut builders: HashMap<String, Builder> = HashMap::new();
     let mut rows_read = 0u64;
@@ -364,15 +414,21 @@ pub fn read_csv_with_dialect(source: impl Read, path: &Path, options: &ReadOptio
                 Some(Ok(id)) if !id.is_empty() => id,
                 // The row's module is unknown: count it against the file's default module.
                 Some(Ok(_)) => {
-                    builder(&mut builders, &options.module, path, &present).bad.add(BadRow::EmptyField, path, line);
+                    builder(&mut builders, &options.module, path, &present)
+                        .bad
+                        .add(BadRow::EmptyField, path, line);
                     continue;
                 }
                 Some(Err(_)) => {
-                    builder(&mut builders, &options.module, path, &present).bad.add(BadRow::Text, path, line);
+                    builder(&mut builders, &options.module, path, &present)
+                        .bad
+                        .add(BadRow::Text, path, line);
                     continue;
                 }
                 None => {
-                    builder(&mut builders, &options.module, path, &present).bad.add(BadRow::ShortRow, path, line);
+                    builder(&mut builders, &options.module, path, &present)
+                        .bad
+                        .add(BadRow::ShortRow, path, line);
                     continue;
                 }
             },
@@ -383,12 +439,14 @@ pub fn read_csv_with_dialect(source: impl Read, path: &Path, options: &ReadOptio
             b.bad.add(BadRow::ShortRow, path, line);
             continue;
         }
-        let parsed = parse_time_in(record.get(time_col).unwrap_or_default(), dialect.decimal).and_then(|t| {
-            for &(slot, col) in &measured {
-                values[slot] = parse_number_in(record.get(col).unwrap_or_default(), dialect.decimal)?;
-            }
-            Ok(t)
-        });
+        let parsed = parse_time_in(record.get(time_col).unwrap_or_default(), dialect.decimal)
+            .and_then(|t| {
+                for &(slot, col) in &measured {
+                    values[slot] =
+                        parse_number_in(record.get(col).unwrap_or_default(), dialect.decimal)?;
+                }
+                Ok(t)
+            });
         match parsed {
             Ok(t) => b.push(t, &values, path, line, options.max_gap),
             Err(reason) => b.bad.add(reason, path, line),
@@ -403,8 +461,15 @@ pub fn read_csv_with_dialect(source: impl Read, path: &Path, options: &ReadOptio
     Ok((logs, dialect))
 }
 
-fn builder<'a>(builders: &'a mut HashMap<String, Builder>, id: &str, path: &Path, present: &[bool; 6]) -> &'a mut Builder {
-    builders.entry(id.to_string()).or_insert_with(|| Builder::new(path, present))
+fn builder<'a>(
+    builders: &'a mut HashMap<String, Builder>,
+    id: &str,
+    path: &Path,
+    present: &[bool; 6],
+) -> &'a mut Builder {
+    builders
+        .entry(id.to_string())
+        .or_insert_with(|| Builder::new(path, present))
 }
 
 /// Accumulates one module's rows of one file.
@@ -441,7 +506,10 @@ impl Builder {
                 self.bad.gaps += 1;
                 self.bad.gap_seconds += t - last;
                 if self.bad.first_gap.is_none() {
-                    self.bad.first_gap = Some(Location { path: path.into(), line });
+                    self.bad.first_gap = Some(Location {
+                        path: path.into(),
+                        line,
+                    });
                 }
                 let next = empty_block(path, line, &self.present);
                 self.blocks.push(std::mem::replace(&mut self.current, next));
@@ -504,7 +572,11 @@ pub fn parse_number_in(field: &[u8], decimal: DecimalMark) -> std::result::Resul
         DecimalMark::Point => parse_number(field),
         DecimalMark::Comma => {
             if field.contains(&b'.') {
-                return Err(if field.iter().all(u8::is_ascii_whitespace) { BadRow::EmptyField } else { BadRow::Text });
+                return Err(if field.iter().all(u8::is_ascii_whitespace) {
+                    BadRow::EmptyField
+                } else {
+                    BadRow::Text
+                });
             }
             let mut pointed = [0u8; 64];
             if field.len() > pointed.len() {
@@ -536,12 +608,19 @@ pub fn parse_time_in(field: &[u8], decimal: DecimalMark) -> std::result::Result<
 }
 
 fn io_error(path: &Path, e: std::io::Error) -> Error {
-    Error::Io { path: path.into(), message: e.to_string() }
+    Error::Io {
+        path: path.into(),
+        message: e.to_string(),
+    }
 }
 
 fn csv_error(path: &Path, e: &csv::Error) -> Error {
     let line = e.position().map_or(0, |p| p.line());
-    Error::Content { path: path.into(), line, message: format!("cannot read CSV: {e}") }
+    Error::Content {
+        path: path.into(),
+        line,
+        message: format!("cannot read CSV: {e}"),
+    }
 }
 
 #[cfg(test)]
@@ -563,7 +642,10 @@ mod tests {
     fn rfc3339_timestamps_with_offsets_and_fractions() {
         let utc = parse_time(b"2025-10-22T08:00:00Z").unwrap();
         assert_eq!(utc, 1_761_120_000.0);
-        assert_eq!(parse_time(b"2025-10-22T10:00:01.5+02:00").unwrap(), utc + 1.5);
+        assert_eq!(
+            parse_time(b"2025-10-22T10:00:01.5+02:00").unwrap(),
+            utc + 1.5
+        );
         assert_eq!(parse_time(b"17.25"), Ok(17.25));
         assert_eq!(parse_time(b"2025-13-22T08:00:00Z"), Err(BadRow::Text));
         assert_eq!(parse_time(b"NaN"), Err(BadRow::NotANumber));

@@ -25,19 +25,34 @@ pub fn sig(v: f64, digits: usize) -> String {
 
 fn estimate_cells(e: &Estimate, unit: &str) -> (String, String) {
     let value = format!("{} {unit}", sig(e.value, 5));
-    let se = if e.standard_error.is_finite() { format!("± {}", sig(e.standard_error, 2)) } else { "undetermined".into() };
+    let se = if e.standard_error.is_finite() {
+        format!("± {}", sig(e.standard_error, 2))
+    } else {
+        "undetermined".into()
+    };
     (value, se)
 }
 
 /// The report for all modules, with the spread when there are several.
-pub fn render(fits: &[ModuleFit], spread: Option<&std::collections::BTreeMap<String, Spread>>) -> String {
+pub fn render(
+    fits: &[ModuleFit],
+    spread: Option<&std::collections::BTreeMap<String, Spread>>,
+) -> String {
     let mut out = String::new();
     for fit in fits {
         render_module(&mut out, fit);
     }
     if let Some(spread) = spread.filter(|s| !s.is_empty()) {
-        let _ = writeln!(out, "Spread over {} modules (identified parameters)", fits.len());
-        let _ = writeln!(out, "  {:<18} {:>12} {:>12} {:>12} {:>12} {:>8}", "parameter", "mean", "std", "min", "max", "cv [%]");
+        let _ = writeln!(
+            out,
+            "Spread over {} modules (identified parameters)",
+            fits.len()
+        );
+        let _ = writeln!(
+            out,
+            "  {:<18} {:>12} {:>12} {:>12} {:>12} {:>8}",
+            "parameter", "mean", "std", "min", "max", "cv [%]"
+        );
         for (name, s) in spread {
             let _ = writeln!(
                 out,
@@ -70,14 +85,31 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
         .iter()
         .filter(|r| log.bad.count(**r) > 0)
         .map(|r| {
-            let first = log.bad.first(*r).map_or(String::new(), |l| format!(", first {}:{}", l.path.display(), l.line));
+            let first = log.bad.first(*r).map_or(String::new(), |l| {
+                format!(", first {}:{}", l.path.display(), l.line)
+            });
             format!("{} {}{first}", r.label(), log.bad.count(*r))
         })
         .collect();
-    let _ = writeln!(out, "  skipped rows: {}", if bad.is_empty() { "none".to_string() } else { bad.join("; ") });
+    let _ = writeln!(
+        out,
+        "  skipped rows: {}",
+        if bad.is_empty() {
+            "none".to_string()
+        } else {
+            bad.join("; ")
+        }
+    );
     if log.bad.gaps > 0 {
-        let first = log.bad.first_gap.as_ref().map_or(String::new(), |l| format!(", first ends at {}:{}", l.path.display(), l.line));
-        let _ = writeln!(out, "  gaps: {} ({} s missing{first})", log.bad.gaps, sig(log.bad.gap_seconds, 4));
+        let first = log.bad.first_gap.as_ref().map_or(String::new(), |l| {
+            format!(", first ends at {}:{}", l.path.display(), l.line)
+        });
+        let _ = writeln!(
+            out,
+            "  gaps: {} ({} s missing{first})",
+            log.bad.gaps,
+            sig(log.bad.gap_seconds, 4)
+        );
     }
     let s = &fit.steps;
     let _ = writeln!(
@@ -86,29 +118,55 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
         s.changes, s.segments, s.qualified, s.after_start, s.outside_window, s.too_small, s.short_level, s.short_response
     );
     let _ = writeln!(out);
-    let _ = writeln!(out, "  {:<20} {:<28} {:<22} Std. error", "Model", "Parameter", "Value");
+    let _ = writeln!(
+        out,
+        "  {:<20} {:<28} {:<22} Std. error",
+        "Model", "Parameter", "Value"
+    );
     let _ = writeln!(out, "  {:-<20} {:-<28} {:-<22} {:-<14}", "", "", "", "");
     let mut row = |model: &str, name: &str, value: String, extra: String| {
         let _ = writeln!(out, "  {model:<20} {name:<28} {value:<22} {extra}");
     };
-    let flag = |name: &str| if fit.is_poorly_determined(name) { "  (poorly determined)" } else { "" };
+    let flag = |name: &str| {
+        if fit.is_poorly_determined(name) {
+            "  (poorly determined)"
+        } else {
+            ""
+        }
+    };
     match &fit.polarisation {
         Stage::Done(p) => {
             let (v, e) = estimate_cells(&p.voltage_intercept, "V");
-            row("Polarisation curve", "Voltage intercept V0", v, e + flag("voltageIntercept"));
+            row(
+                "Polarisation curve",
+                "Voltage intercept V0",
+                v,
+                e + flag("voltageIntercept"),
+            );
             let (v, e) = estimate_cells(&p.ohmic_resistance, "Ω");
             row("", "Ohmic resistance R", v, e + flag("ohmicResistance"));
             row(
                 "",
                 "RMSE",
                 format!("{} V", sig(p.rmse, 4)),
-                format!("{} of {} running points, I {}…{} A", p.points, p.candidates, sig(p.current_range.0, 3), sig(p.current_range.1, 3)),
+                format!(
+                    "{} of {} running points, I {}…{} A",
+                    p.points,
+                    p.candidates,
+                    sig(p.current_range.0, 3),
+                    sig(p.current_range.1, 3)
+                ),
             );
             for note in &p.notes {
                 row("", "note", note.clone(), String::new());
             }
         }
-        Stage::Skipped(why) => row("Polarisation curve", "not identified", why.clone(), String::new()),
+        Stage::Skipped(why) => row(
+            "Polarisation curve",
+            "not identified",
+            why.clone(),
+            String::new(),
+        ),
     }
     match &fit.dynamics {
         Stage::Done(d) => {
@@ -121,13 +179,32 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
             let (v, e) = estimate_cells(&d.tau_pole2, "s");
             row("", "τp2", v, e + flag("tauPole2"));
             let (v, e) = estimate_cells(&d.ratio_zero_pole2, "");
-            row("", "τz/τp2", v, format!("{e}  corr(τz, τp2) = {:.4}", d.correlation[1][3]));
+            row(
+                "",
+                "τz/τp2",
+                v,
+                format!("{e}  corr(τz, τp2) = {:.4}", d.correlation[1][3]),
+            );
             match &d.ramp {
                 Ok(r) => {
                     let (v, e) = estimate_cells(r, "A/s");
-                    row("", "Positive ramp-rate limit", v, format!("{e}{}  binds in {} positive steps", flag("rampUpLimit"), d.ramp_binding));
+                    row(
+                        "",
+                        "Positive ramp-rate limit",
+                        v,
+                        format!(
+                            "{e}{}  binds in {} positive steps",
+                            flag("rampUpLimit"),
+                            d.ramp_binding
+                        ),
+                    );
                 }
-                Err(why) => row("", "Positive ramp-rate limit", "not identified".into(), why.clone()),
+                Err(why) => row(
+                    "",
+                    "Positive ramp-rate limit",
+                    "not identified".into(),
+                    why.clone(),
+                ),
             }
             row(
                 "",
@@ -145,29 +222,70 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
                 ),
             );
         }
-        Stage::Skipped(why) => row("Current dynamics", "not identified", why.clone(), String::new()),
+        Stage::Skipped(why) => row(
+            "Current dynamics",
+            "not identified",
+            why.clone(),
+            String::new(),
+        ),
     }
     match &fit.hydrogen {
         Stage::Done(h) => {
             let (v, e) = estimate_cells(&h.coefficient, "Nl/(h·A)");
-            row("Hydrogen production", "Production coefficient", v, e + flag("h2Coefficient"));
-            row("", "RMSE", format!("{} Nl/h", sig(h.rmse, 4)), format!("{} points", h.points));
+            row(
+                "Hydrogen production",
+                "Production coefficient",
+                v,
+                e + flag("h2Coefficient"),
+            );
+            row(
+                "",
+                "RMSE",
+                format!("{} Nl/h", sig(h.rmse, 4)),
+                format!("{} points", h.points),
+            );
             row(
                 "",
                 "Faraday efficiency",
                 format!("{:.2} %", 100.0 * h.faraday_efficiency),
-                format!("{} cells, ideal {} Nl/(h·A)", h.cells, sig(super::hydrogen::ideal_coefficient(h.cells), 6)),
+                format!(
+                    "{} cells, ideal {} Nl/(h·A)",
+                    h.cells,
+                    sig(super::hydrogen::ideal_coefficient(h.cells), 6)
+                ),
             );
         }
-        Stage::Skipped(why) => row("Hydrogen production", "not identified", why.clone(), String::new()),
+        Stage::Skipped(why) => row(
+            "Hydrogen production",
+            "not identified",
+            why.clone(),
+            String::new(),
+        ),
     }
-    row("", "Nominal current", format!("{} A", sig(fit.parameters.nominal_current, 5)), "given (not identified)".into());
+    row(
+        "",
+        "Nominal current",
+        format!("{} A", sig(fit.parameters.nominal_current, 5)),
+        "given (not identified)".into(),
+    );
     let _ = writeln!(out);
     if let Stage::Done(d) = &fit.dynamics {
         let groups: Vec<String> = d
             .groups
             .iter()
-            .map(|g| format!("{}{} %: {} A ({})", if g.sign == super::segments::Sign::Negative { "−" } else { "+" }, g.size, sig(g.rmse, 3), g.steps))
+            .map(|g| {
+                format!(
+                    "{}{} %: {} A ({})",
+                    if g.sign == super::segments::Sign::Negative {
+                        "−"
+                    } else {
+                        "+"
+                    },
+                    g.size,
+                    sig(g.rmse, 3),
+                    g.steps
+                )
+            })
             .collect();
         let _ = writeln!(out, "  RMSE per step size (steps): {}", groups.join(", "));
         if let Some(t) = &d.trajectory {
@@ -189,9 +307,20 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
     match &fit.structure {
         Stage::Done(s) => {
             let best = s.best_order();
-            let min_aicc = s.candidates.iter().map(|c| c.aicc).fold(f64::INFINITY, f64::min);
-            let _ = writeln!(out, "  Structure check on the negative steps (N = {} residuals):", s.residuals);
-            let _ = writeln!(out, "    order  k  RMSE [A]   AICc          ΔAICc       poles [s]");
+            let min_aicc = s
+                .candidates
+                .iter()
+                .map(|c| c.aicc)
+                .fold(f64::INFINITY, f64::min);
+            let _ = writeln!(
+                out,
+                "  Structure check on the negative steps (N = {} residuals):",
+                s.residuals
+            );
+            let _ = writeln!(
+                out,
+                "    order  k  RMSE [A]   AICc          ΔAICc       poles [s]"
+            );
             for c in &s.candidates {
                 let poles: Vec<String> = c.time_constants.iter().map(|t| sig(*t, 4)).collect();
                 let _ = writeln!(
@@ -203,7 +332,11 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
                     c.aicc,
                     sig(c.aicc - min_aicc, 4),
                     poles.join(", "),
-                    if Some(c.order) == best { "   ← lowest AICc" } else { "" }
+                    if Some(c.order) == best {
+                        "   ← lowest AICc"
+                    } else {
+                        ""
+                    }
                 );
             }
             for (order, why) in &s.failures {
@@ -214,7 +347,12 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
             let _ = writeln!(out, "  Structure check not run: {why}");
         }
     }
-    let flagged: Vec<&str> = fit.estimates.keys().copied().filter(|n| fit.is_poorly_determined(n)).collect();
+    let flagged: Vec<&str> = fit
+        .estimates
+        .keys()
+        .copied()
+        .filter(|n| fit.is_poorly_determined(n))
+        .collect();
     if !flagged.is_empty() {
         let _ = writeln!(
             out,
@@ -243,8 +381,10 @@ fn num(v: f64) -> Value {
 
 /// Fit statistics of one module for the parameter file.
 pub fn statistics_json(fit: &ModuleFit) -> Value {
-    let bad: serde_json::Map<String, Value> =
-        BadRow::ALL.iter().map(|r| (r.label().to_string(), json!(fit.log.bad.count(*r)))).collect();
+    let bad: serde_json::Map<String, Value> = BadRow::ALL
+        .iter()
+        .map(|r| (r.label().to_string(), json!(fit.log.bad.count(*r))))
+        .collect();
     let s = &fit.steps;
     json!({
         "rowsRead": fit.log.rows_read,

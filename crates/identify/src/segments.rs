@@ -160,12 +160,16 @@ pub struct StepSet {
 pub fn running_segments(log: &ModuleLog, options: &StepOptions) -> Vec<Segment> {
     let mut segments = Vec::new();
     for block in &log.blocks {
-        let (Some(setpoint), Some(current)) = (block.channel(Channel::Setpoint), block.channel(Channel::Current)) else {
+        let (Some(setpoint), Some(current)) = (
+            block.channel(Channel::Setpoint),
+            block.channel(Channel::Current),
+        ) else {
             continue;
         };
         let mut start = None;
         for i in 0..=block.len() {
-            let running = i < block.len() && current[i] > options.running_current && setpoint[i] > 0.0;
+            let running =
+                i < block.len() && current[i] > options.running_current && setpoint[i] > 0.0;
             match (running, start) {
                 (true, None) => start = Some(i),
                 (false, Some(s)) => {
@@ -231,7 +235,15 @@ pub fn find_steps(segments: Vec<Segment>, options: &StepOptions) -> StepSet {
             let pre_start = p + t[p..n].partition_point(|&ti| ti < t0 - options.pre_window);
             let pre = pre_start..n;
             let pre_mean = seg.current[pre.clone()].iter().sum::<f64>() / pre.len() as f64;
-            set.steps.push(Step { segment: index, before: n - 1, pre, post: n..e, from, to, pre_mean });
+            set.steps.push(Step {
+                segment: index,
+                before: n - 1,
+                pre,
+                post: n..e,
+                from,
+                to,
+                pre_mean,
+            });
         }
     }
     set.segments = segments;

@@ -50,7 +50,10 @@ pub struct StructureCheck {
 impl StructureCheck {
     /// Order with the lowest AICc.
     pub fn best_order(&self) -> Option<usize> {
-        self.candidates.iter().min_by(|a, b| a.aicc.total_cmp(&b.aicc)).map(|c| c.order)
+        self.candidates
+            .iter()
+            .min_by(|a, b| a.aicc.total_cmp(&b.aicc))
+            .map(|c| c.order)
     }
 }
 
@@ -64,7 +67,12 @@ struct ModalResiduals<'a> {
 
 impl<'a> ModalResiduals<'a> {
     fn new(set: &'a StepSet, steps: &[usize], order: usize, window: (f64, f64)) -> Self {
-        ModalResiduals { set, order, window, plan: modal::plan(set, steps) }
+        ModalResiduals {
+            set,
+            order,
+            window,
+            plan: modal::plan(set, steps),
+        }
     }
 
     /// (K, τ, w) from θ.
@@ -84,19 +92,33 @@ impl Residuals for ModalResiduals<'_> {
 
     fn residuals(&self, theta: &[f64], out: &mut Vec<f64>) -> bool {
         let (gain, taus, w) = self.unpack(theta);
-        let modal = modal::Modal { gain, taus: &taus, weights: &w, window: self.window };
+        let modal = modal::Modal {
+            gain,
+            taus: &taus,
+            weights: &w,
+            window: self.window,
+        };
         modal.residuals(self.set, &self.plan, out, None)
     }
 
     fn exact_jacobian(&self, theta: &[f64]) -> Option<DMatrix<f64>> {
         let (gain, taus, w) = self.unpack(theta);
-        let modal = modal::Modal { gain, taus: &taus, weights: &w, window: self.window };
+        let modal = modal::Modal {
+            gain,
+            taus: &taus,
+            weights: &w,
+            window: self.window,
+        };
         let mut out = Vec::new();
         let mut columns: Vec<Vec<f64>> = vec![Vec::new(); 2 * self.order];
         if !modal.residuals(self.set, &self.plan, &mut out, Some(&mut columns[..])) {
             return None;
         }
-        Some(DMatrix::from_iterator(out.len(), 2 * self.order, columns.into_iter().flatten()))
+        Some(DMatrix::from_iterator(
+            out.len(),
+            2 * self.order,
+            columns.into_iter().flatten(),
+        ))
     }
 }
 
@@ -106,7 +128,11 @@ const TOLERANCE: f64 = 1e-6;
 
 /// Fits orders 1 and 3 on the negative steps used by `dynamics` and lists them with its
 /// second order.
-pub fn check_structure(set: &StepSet, dynamics: &DynamicsFit, params: &Parameters) -> StructureCheck {
+pub fn check_structure(
+    set: &StepSet,
+    dynamics: &DynamicsFit,
+    params: &Parameters,
+) -> StructureCheck {
     let steps = &dynamics.negative_steps;
     let window = (params.min_setpoint, params.max_setpoint);
     let p = &dynamics.parameters;
@@ -162,7 +188,13 @@ pub fn check_structure(set: &StepSet, dynamics: &DynamicsFit, params: &Parameter
         handles
             .into_iter()
             .zip([1, 3])
-            .map(|(h, order)| (order, h.join().unwrap_or_else(|_| Err("the fit's thread failed".into()))))
+            .map(|(h, order)| {
+                (
+                    order,
+                    h.join()
+                        .unwrap_or_else(|_| Err("the fit's thread failed".into())),
+                )
+            })
             .collect()
     });
     for (order, result) in results {
@@ -172,7 +204,11 @@ pub fn check_structure(set: &StepSet, dynamics: &DynamicsFit, params: &Parameter
         }
     }
     candidates.sort_by_key(|c| c.order);
-    StructureCheck { candidates, residuals: n_residuals, failures }
+    StructureCheck {
+        candidates,
+        residuals: n_residuals,
+        failures,
+    }
 }
 
 /// τ [s] of the first-order step response 1 − e^(−t/τ) closest (least squares over
@@ -186,7 +222,11 @@ fn closest_first_order(p: &Parameters) -> f64 {
     (0..80)
         .map(|i| 0.5 * 1000f64.powf(f64::from(i) / 79.0))
         .map(|tau| {
-            let err: f64 = target.iter().enumerate().map(|(t, g)| (g - (-(t as f64 + 1.0) / tau).exp()).powi(2)).sum();
+            let err: f64 = target
+                .iter()
+                .enumerate()
+                .map(|(t, g)| (g - (-(t as f64 + 1.0) / tau).exp()).powi(2))
+                .sum();
             (err, tau)
         })
         .min_by(|x, y| x.0.total_cmp(&y.0))

@@ -182,7 +182,12 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
     // The first level lasts through the start-up.
     let mut first = true;
     while total < running {
-        let rows = if first { 1200 } else { LEVEL_SECONDS[rng.below(LEVEL_SECONDS.len())] }.min(running - total);
+        let rows = if first {
+            1200
+        } else {
+            LEVEL_SECONDS[rng.below(LEVEL_SECONDS.len())]
+        }
+        .min(running - total);
         schedule.push((rows, level));
         total += rows;
         first = false;
@@ -197,7 +202,12 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
 
     // Temperature dips: start row and depth, during running after the warm-up.
     let dips: Vec<(usize, f64)> = (0..spec.dips_per_day)
-        .map(|_| (OFF_SECONDS + 2400 + rng.below(running.saturating_sub(3000).max(1)), 1.0 + 2.0 * rng.uniform()))
+        .map(|_| {
+            (
+                OFF_SECONDS + 2400 + rng.below(running.saturating_sub(3000).max(1)),
+                1.0 + 2.0 * rng.uniform(),
+            )
+        })
         .collect();
 
     let mut day = Day::default();
@@ -216,8 +226,17 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
                     run_start = row;
                     // A cold, stopped stack: every state at zero, then the model takes over.
                     let mut m = Module::new(p, u)?;
-                    let zero = CurrentState { z1: 0.0, z2: 0.0, current: 0.0 };
-                    m.restore(ModuleState { time: 0.0, current: zero, energy: 0.0, h2_produced: 0.0 });
+                    let zero = CurrentState {
+                        z1: 0.0,
+                        z2: 0.0,
+                        current: 0.0,
+                    };
+                    m.restore(ModuleState {
+                        time: 0.0,
+                        current: zero,
+                        energy: 0.0,
+                        h2_produced: 0.0,
+                    });
                     module = Some(m);
                 }
                 let Some(m) = module.as_mut() else { continue };
@@ -243,15 +262,27 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
             });
             let since_start = (row - run_start) as f64;
             // Temperature: warm-up from 45 °C over ~7 min when running, dips, cooling when off.
-            let mut temperature = if running { 55.0 - 10.0 * (-since_start / 400.0).exp() } else { 45.0 };
+            let mut temperature = if running {
+                55.0 - 10.0 * (-since_start / 400.0).exp()
+            } else {
+                45.0
+            };
             for &(start, depth) in &dips {
                 if row >= start && running {
                     let age = (row - start) as f64;
-                    let shape = if age < 60.0 { age / 60.0 } else { (-(age - 60.0) / 300.0).exp() };
+                    let shape = if age < 60.0 {
+                        age / 60.0
+                    } else {
+                        (-(age - 60.0) / 300.0).exp()
+                    };
                     temperature -= depth * shape;
                 }
             }
-            let pressure = if running { 29.0 * (since_start / 300.0).min(1.0) } else { 0.0 };
+            let pressure = if running {
+                29.0 * (since_start / 300.0).min(1.0)
+            } else {
+                0.0
+            };
             let i_true = current + extra;
             let voltage = if running || off_current > 0.5 {
                 p.voltage_intercept
@@ -264,10 +295,14 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
             day.time.push(t);
             day.setpoint.push(u);
             day.current.push(i_true + spec.current_noise * rng.normal());
-            day.voltage.push(voltage + spec.voltage_noise * rng.normal());
-            day.temperature.push(temperature + spec.temperature_noise * rng.normal());
-            day.pressure.push(pressure + spec.pressure_noise * rng.normal());
-            day.h2_flow.push(p.h2_coefficient * i_true.max(0.0) + spec.h2_noise * rng.normal());
+            day.voltage
+                .push(voltage + spec.voltage_noise * rng.normal());
+            day.temperature
+                .push(temperature + spec.temperature_noise * rng.normal());
+            day.pressure
+                .push(pressure + spec.pressure_noise * rng.normal());
+            day.h2_flow
+                .push(p.h2_coefficient * i_true.max(0.0) + spec.h2_noise * rng.normal());
             previous_setpoint = u;
             row += 1;
         }
@@ -301,7 +336,16 @@ pub struct CsvOptions {
 impl Default for CsvOptions {
     fn default() -> Self {
         CsvOptions {
-            names: ["time", "setpoint", "current", "voltage", "temperature", "pressure", "h2_flow"].map(String::from),
+            names: [
+                "time",
+                "setpoint",
+                "current",
+                "voltage",
+                "temperature",
+                "pressure",
+                "h2_flow",
+            ]
+            .map(String::from),
             omit: Vec::new(),
             rfc3339: false,
             module: None,
@@ -325,11 +369,25 @@ pub struct Injected {
 
 /// The day as CSV text (header first).
 pub fn to_csv(day: &Day, options: &CsvOptions) -> (String, Injected) {
-    let keep: Vec<bool> = ["time", "setpoint", "current", "voltage", "temperature", "pressure", "h2_flow"]
+    let keep: Vec<bool> = [
+        "time",
+        "setpoint",
+        "current",
+        "voltage",
+        "temperature",
+        "pressure",
+        "h2_flow",
+    ]
+    .iter()
+    .map(|k| !options.omit.iter().any(|o| o == k))
+    .collect();
+    let mut header: Vec<&str> = options
+        .names
         .iter()
-        .map(|k| !options.omit.iter().any(|o| o == k))
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(n, _)| n.as_str())
         .collect();
-    let mut header: Vec<&str> = options.names.iter().zip(&keep).filter(|(_, k)| **k).map(|(n, _)| n.as_str()).collect();
     if let Some((name, _)) = &options.module {
         header.push(name);
     }
@@ -366,8 +424,20 @@ pub fn to_csv(day: &Day, options: &CsvOptions) -> (String, Injected) {
                 // Field 2 is the current (always written).
                 match kind {
                     0 => fields[2].clear(),
-                    1 => fields[2] = if a % 2 == 0 { "nan".into() } else { "NaN".into() },
-                    2 => fields[1] = if a % 2 == 0 { "n/a".into() } else { "ERR#3".into() },
+                    1 => {
+                        fields[2] = if a % 2 == 0 {
+                            "nan".into()
+                        } else {
+                            "NaN".into()
+                        }
+                    }
+                    2 => {
+                        fields[1] = if a % 2 == 0 {
+                            "n/a".into()
+                        } else {
+                            "ERR#3".into()
+                        }
+                    }
                     3 => fields.truncate(2),
                     4 => {
                         // The good row, then the same timestamp again.
@@ -403,14 +473,29 @@ fn push_line(out: &mut String, fields: &[String]) {
 fn format_row(day: &Day, r: usize, options: &CsvOptions, keep: &[bool], fields: &mut Vec<String>) {
     fields.clear();
     let time = if options.rfc3339 {
-        chrono::DateTime::from_timestamp(day.time[r].floor() as i64, 0)
-            .map_or_else(|| format!("{}", day.time[r]), |d| d.to_rfc3339_opts(chrono::SecondsFormat::Secs, true))
+        chrono::DateTime::from_timestamp(day.time[r].floor() as i64, 0).map_or_else(
+            || format!("{}", day.time[r]),
+            |d| d.to_rfc3339_opts(chrono::SecondsFormat::Secs, true),
+        )
     } else {
         format!("{}", day.time[r])
     };
-    let values = [day.setpoint[r], day.current[r], day.voltage[r], day.temperature[r], day.pressure[r], day.h2_flow[r]];
+    let values = [
+        day.setpoint[r],
+        day.current[r],
+        day.voltage[r],
+        day.temperature[r],
+        day.pressure[r],
+        day.h2_flow[r],
+    ];
     let mut all = vec![time];
-    all.extend(values.iter().enumerate().map(|(i, v)| if i == 0 { format!("{v}") } else { format!("{v:.4}") }));
+    all.extend(values.iter().enumerate().map(|(i, v)| {
+        if i == 0 {
+            format!("{v}")
+        } else {
+            format!("{v:.4}")
+        }
+    }));
     for (f, k) in all.into_iter().zip(keep) {
         if *k {
             fields.push(f);
@@ -423,7 +508,11 @@ fn format_row(day: &Day, r: usize, options: &CsvOptions, keep: &[bool], fields: 
 
 /// Writes a campaign as daily CSV files `day01.csv`… into `dir`; returns the files and what
 /// was injected in each.
-pub fn write_campaign(dir: &std::path::Path, days: &[Day], options: &CsvOptions) -> std::io::Result<Vec<(std::path::PathBuf, Injected)>> {
+pub fn write_campaign(
+    dir: &std::path::Path,
+    days: &[Day],
+    options: &CsvOptions,
+) -> std::io::Result<Vec<(std::path::PathBuf, Injected)>> {
     std::fs::create_dir_all(dir)?;
     let mut out = Vec::new();
     for (i, day) in days.iter().enumerate() {
@@ -440,6 +529,12 @@ pub fn write_campaign(dir: &std::path::Path, days: &[Day], options: &CsvOptions)
 /// Describes a day for messages.
 pub fn describe(day: &Day) -> String {
     let mut s = String::new();
-    let _ = write!(s, "{} rows, {} steps ({} disturbed)", day.len(), day.steps, day.disturbed);
+    let _ = write!(
+        s,
+        "{} rows, {} steps ({} disturbed)",
+        day.len(),
+        day.steps,
+        day.disturbed
+    );
     s
 }

@@ -28,7 +28,10 @@ pub struct ValidateOptions {
 
 impl Default for ValidateOptions {
     fn default() -> Self {
-        ValidateOptions { running_current: 1.0, settle: 600.0 }
+        ValidateOptions {
+            running_current: 1.0,
+            settle: 600.0,
+        }
     }
 }
 
@@ -62,15 +65,26 @@ pub struct Trace {
 }
 
 /// Simulates `params` over the running segments of `log` and compares.
-pub fn validate(params: &Parameters, log: &ModuleLog, options: &ValidateOptions) -> Result<(Validation, Trace)> {
+pub fn validate(
+    params: &Parameters,
+    log: &ModuleLog,
+    options: &ValidateOptions,
+) -> Result<(Validation, Trace)> {
     if !log.has(Channel::Setpoint) {
-        return Err(Error::Input(format!("module {}: no setpoint column to drive the model", log.id)));
+        return Err(Error::Input(format!(
+            "module {}: no setpoint column to drive the model",
+            log.id
+        )));
     }
     let mut v = Validation::default();
     let mut trace = Trace::default();
-    let (mut e_i, mut e_i_all, mut e_v, mut e_p, mut e_h) = (vec![], vec![], vec![], vec![], vec![]);
+    let (mut e_i, mut e_i_all, mut e_v, mut e_p, mut e_h) =
+        (vec![], vec![], vec![], vec![], vec![]);
     for block in &log.blocks {
-        let (Some(setpoint), Some(current)) = (block.channel(Channel::Setpoint), block.channel(Channel::Current)) else {
+        let (Some(setpoint), Some(current)) = (
+            block.channel(Channel::Setpoint),
+            block.channel(Channel::Current),
+        ) else {
             continue;
         };
         let voltage = block.channel(Channel::Voltage);
@@ -84,13 +98,18 @@ pub fn validate(params: &Parameters, log: &ModuleLog, options: &ValidateOptions)
                 continue;
             }
             let start = r;
-            let mut module = Module::new(*params, setpoint[r]).map_err(|e| Error::Input(format!("parameters: {e}")))?;
+            let mut module = Module::new(*params, setpoint[r])
+                .map_err(|e| Error::Input(format!("parameters: {e}")))?;
             v.segments += 1;
             while r < block.len() && running(r) {
                 if r > start {
-                    module.step(setpoint[r], t[r] - t[r - 1]).map_err(|e| {
-                        Error::Content { path: block.source.clone(), line: block.first_line, message: format!("row {r} of the block: {e}") }
-                    })?;
+                    module
+                        .step(setpoint[r], t[r] - t[r - 1])
+                        .map_err(|e| Error::Content {
+                            path: block.source.clone(),
+                            line: block.first_line,
+                            message: format!("row {r} of the block: {e}"),
+                        })?;
                 }
                 let compared = t[r] - t[start] >= options.settle;
                 let mv = voltage.map_or(f64::NAN, |x| x[r]);
@@ -144,12 +163,24 @@ pub const TRACE_HEADER: &str = "time,setpoint,current_measured,current_model,vol
 
 /// Writes the trace as CSV (for `python -m aem_electrolyser.plot_validation`).
 pub fn write_trace(path: &Path, trace: &Trace) -> Result<()> {
-    let io = |e: std::io::Error| Error::Io { path: path.into(), message: e.to_string() };
+    let io = |e: std::io::Error| Error::Io {
+        path: path.into(),
+        message: e.to_string(),
+    };
     let file = std::fs::File::create(path).map_err(io)?;
     let mut w = std::io::BufWriter::new(file);
     writeln!(w, "{TRACE_HEADER}").map_err(io)?;
     for (row, compared) in &trace.rows {
-        let fields: Vec<String> = row.iter().map(|x| if x.is_finite() { format!("{x}") } else { String::new() }).collect();
+        let fields: Vec<String> = row
+            .iter()
+            .map(|x| {
+                if x.is_finite() {
+                    format!("{x}")
+                } else {
+                    String::new()
+                }
+            })
+            .collect();
         writeln!(w, "{},{}", fields.join(","), u8::from(*compared)).map_err(io)?;
     }
     w.flush().map_err(io)

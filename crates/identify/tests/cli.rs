@@ -9,11 +9,14 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-use aem_model::parameter_file::ParameterFile;
 use aem_identify::validate::TRACE_HEADER;
+use aem_model::parameter_file::ParameterFile;
 
 fn tool(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_aem-identify")).args(args).output().expect("run aem-identify")
+    Command::new(env!("CARGO_BIN_EXE_aem-identify"))
+        .args(args)
+        .output()
+        .expect("run aem-identify")
 }
 
 fn text(bytes: &[u8]) -> String {
@@ -22,7 +25,12 @@ fn text(bytes: &[u8]) -> String {
 
 fn ok(args: &[&str]) -> String {
     let out = tool(args);
-    assert!(out.status.success(), "{args:?}: {}\n{}", text(&out.stdout), text(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{args:?}: {}\n{}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
     text(&out.stdout)
 }
 
@@ -31,7 +39,10 @@ fn fails(args: &[&str], want: &str) {
     let out = tool(args);
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
-    assert!(err.contains("aem-identify: error:") && err.contains(want), "{args:?}: {err}");
+    assert!(
+        err.contains("aem-identify: error:") && err.contains(want),
+        "{args:?}: {err}"
+    );
     assert!(!err.contains("panicked"), "{err}");
 }
 
@@ -50,13 +61,29 @@ fn s(p: &Path) -> &str {
 fn fit_then_validate_on_a_held_out_day() {
     let dir = scratch("cli_fit");
     let (train, held) = (dir.join("train"), dir.join("held"));
-    ok(&["synthesize", s(&train), "--days", "3", "--broken", "--rfc3339"]);
+    ok(&[
+        "synthesize",
+        s(&train),
+        "--days",
+        "3",
+        "--broken",
+        "--rfc3339",
+    ]);
     ok(&["synthesize", s(&held), "--days", "1", "--skip", "3"]);
     let params = dir.join("params.json");
     let out = tool(&["fit", s(&train), "-o", s(&params), "--timings"]);
     let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
     assert!(out.status.success(), "{stdout}{stderr}");
-    for want in ["Voltage intercept V0", "τz/τp2", "corr(τz, τp2)", "Positive ramp-rate limit", "Faraday efficiency", "Structure check", "duplicated timestamp 6", "gaps: 3"] {
+    for want in [
+        "Voltage intercept V0",
+        "τz/τp2",
+        "corr(τz, τp2)",
+        "Positive ramp-rate limit",
+        "Faraday efficiency",
+        "Structure check",
+        "duplicated timestamp 6",
+        "gaps: 3",
+    ] {
         assert!(stdout.contains(want), "missing `{want}`:\n{stdout}");
     }
     assert!(stderr.contains("timing: total"), "{stderr}");
@@ -70,7 +97,13 @@ fn fit_then_validate_on_a_held_out_day() {
     assert!((gain / 0.512 - 1.0).abs() < 0.01, "gain {gain}");
 
     let trace = dir.join("validation.csv");
-    let out = ok(&["validate", s(&params), s(&held.join("day01.csv")), "--csv", s(&trace)]);
+    let out = ok(&[
+        "validate",
+        s(&params),
+        s(&held.join("day01.csv")),
+        "--csv",
+        s(&trace),
+    ]);
     assert!(out.contains("RMSE current"), "{out}");
     let rmse: f64 = out
         .lines()
@@ -93,13 +126,29 @@ fn one_file_set_per_module() {
     let params = dir.join("p.json");
     let arg_a = format!("A={}", s(&a));
     let arg_b = format!("B={}", s(&b));
-    let out = ok(&["fit", "--module", &arg_a, "--module", &arg_b, "-o", s(&params)]);
-    assert!(out.contains("Module A:") && out.contains("Module B:") && out.contains("Spread over 2 modules"), "{out}");
+    let out = ok(&[
+        "fit",
+        "--module",
+        &arg_a,
+        "--module",
+        &arg_b,
+        "-o",
+        s(&params),
+    ]);
+    assert!(
+        out.contains("Module A:")
+            && out.contains("Module B:")
+            && out.contains("Spread over 2 modules"),
+        "{out}"
+    );
     let file = ParameterFile::load(&params).unwrap();
     assert_eq!(file.modules.len(), 2);
     // Validate needs to know which module.
     let day = a.join("day01.csv");
-    fails(&["validate", s(&params), s(&day)], "choose one with --module");
+    fails(
+        &["validate", s(&params), s(&day)],
+        "choose one with --module",
+    );
     ok(&["validate", s(&params), s(&day), "--module", "A"]);
 }
 
@@ -111,13 +160,30 @@ fn bad_input_is_an_error_naming_the_file() {
     let data = dir.join("data.csv");
     std::fs::write(&data, "t,I\n0,1\n").unwrap();
     fails(&["fit", s(&data)], "data.csv:1: no column `time`");
-    fails(&["fit", s(&data), "--column", "amps=I"], "unknown key `amps`");
+    fails(
+        &["fit", s(&data), "--column", "amps=I"],
+        "unknown key `amps`",
+    );
     fails(&["fit", "--module", "noequals"], "ID=PATH");
     let params = dir.join("p.json");
     std::fs::write(&params, r#"{"generator":"x","modules":[{"module":"m","parameters":{"gainz":{"value":1,"unit":"A/%","source":"identified"}}}]}"#).unwrap();
-    fails(&["validate", s(&params), s(&data), "--column", "time=t", "--column", "current=I"], "unknown parameter `gainz`");
+    fails(
+        &[
+            "validate",
+            s(&params),
+            s(&data),
+            "--column",
+            "time=t",
+            "--column",
+            "current=I",
+        ],
+        "unknown parameter `gainz`",
+    );
     std::fs::write(&params, "{ not json").unwrap();
-    fails(&["validate", s(&params), s(&data)], "p.json:1: not a parameter file");
+    fails(
+        &["validate", s(&params), s(&data)],
+        "p.json:1: not a parameter file",
+    );
     // Usage errors are clap's (status 2).
     assert_eq!(tool(&["fit", "--cells", "many"]).status.code(), Some(2));
 }
@@ -150,11 +216,20 @@ fn a_closed_stdout_ends_every_command_quietly_after_its_files_are_written() {
         let out = with_closed_stdout(args);
         let err = text(&out.stderr);
         assert_eq!(out.status.code(), Some(0), "{args:?}: {err}");
-        assert!(!err.contains("panicked") && !err.contains("Broken pipe"), "{args:?}: {err}");
+        assert!(
+            !err.contains("panicked") && !err.contains("Broken pipe"),
+            "{args:?}: {err}"
+        );
     }
     assert_eq!(std::fs::read_dir(&train).unwrap().count(), 2);
-    assert!(ParameterFile::load(&params).unwrap().module(None).is_ok(), "params.json written in full");
-    assert_eq!(std::fs::read_to_string(&trace).unwrap().lines().next(), Some(TRACE_HEADER));
+    assert!(
+        ParameterFile::load(&params).unwrap().module(None).is_ok(),
+        "params.json written in full"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&trace).unwrap().lines().next(),
+        Some(TRACE_HEADER)
+    );
 }
 
 #[test]
@@ -162,16 +237,37 @@ fn an_output_path_that_cannot_be_written_is_refused_before_the_work() {
     let dir = scratch("cli_output_paths");
     let nowhere = dir.join("no-such-dir").join("params.json");
     // The input does not exist either: the output path is checked first.
-    fails(&["fit", s(&dir.join("missing.csv")), "-o", s(&nowhere)], "no-such-dir");
-    fails(&["fit", s(&dir.join("missing.csv")), "-o", s(&dir)], "is a directory");
-    fails(&["validate", s(&dir.join("missing.json")), s(&dir), "--csv", s(&nowhere)], "no-such-dir");
+    fails(
+        &["fit", s(&dir.join("missing.csv")), "-o", s(&nowhere)],
+        "no-such-dir",
+    );
+    fails(
+        &["fit", s(&dir.join("missing.csv")), "-o", s(&dir)],
+        "is a directory",
+    );
+    fails(
+        &[
+            "validate",
+            s(&dir.join("missing.json")),
+            s(&dir),
+            "--csv",
+            s(&nowhere),
+        ],
+        "no-such-dir",
+    );
     // A file made to prove the path is removed again when the work fails.
     let fresh = dir.join("fresh.json");
-    fails(&["fit", s(&dir.join("missing.csv")), "-o", s(&fresh)], "missing.csv");
+    fails(
+        &["fit", s(&dir.join("missing.csv")), "-o", s(&fresh)],
+        "missing.csv",
+    );
     assert!(!fresh.exists(), "an empty result file was left behind");
     let blocked = dir.join("file");
     std::fs::write(&blocked, "").unwrap();
-    fails(&["synthesize", s(&blocked.join("sub"))], "cannot write here");
+    fails(
+        &["synthesize", s(&blocked.join("sub"))],
+        "cannot write here",
+    );
 }
 
 /// Rewrites every `*.csv` of `from` into `to` with `separator` and a decimal comma; `excel`
@@ -185,7 +281,11 @@ fn europeanise(from: &Path, to: &Path, separator: char, excel: bool) {
         }
         let text = std::fs::read_to_string(&path).unwrap();
         let end = if excel { "\r\n" } else { "\n" };
-        let mut out = if excel { "\u{feff}".to_string() } else { String::new() };
+        let mut out = if excel {
+            "\u{feff}".to_string()
+        } else {
+            String::new()
+        };
         for line in text.lines() {
             let fields: Vec<String> = line.split(',').map(|f| f.replace('.', ",")).collect();
             out += &fields.join(&separator.to_string());
@@ -199,7 +299,11 @@ fn europeanise(from: &Path, to: &Path, separator: char, excel: bool) {
 fn parameters(path: &Path) -> Vec<(String, f64)> {
     let file = ParameterFile::load(path).unwrap();
     let entry = file.module(None).unwrap();
-    entry.parameters.iter().map(|(name, p)| (name.clone(), p.value)).collect()
+    entry
+        .parameters
+        .iter()
+        .map(|(name, p)| (name.clone(), p.value))
+        .collect()
 }
 
 #[test]
@@ -211,7 +315,11 @@ fn semicolon_and_tab_exports_with_decimal_commas_fit_like_the_original() {
     europeanise(&original, &semicolon, ';', true);
     europeanise(&original, &tab, '\t', false);
     let head = std::fs::read_to_string(semicolon.join("day01.csv")).unwrap();
-    assert!(head.starts_with("\u{feff}time;setpoint;current") && head.contains(",0"), "{}", &head[..80]);
+    assert!(
+        head.starts_with("\u{feff}time;setpoint;current") && head.contains(",0"),
+        "{}",
+        &head[..80]
+    );
 
     let fit = |input: &Path, name: &str, extra: &[&str]| {
         let out = dir.join(name);
@@ -220,22 +328,49 @@ fn semicolon_and_tab_exports_with_decimal_commas_fit_like_the_original() {
         (ok(&args), parameters(&out))
     };
     let (report, want) = fit(&original, "original.json", &[]);
-    assert!(!report.contains("read as"), "a plain CSV needs no word on its dialect:\n{report}");
+    assert!(
+        !report.contains("read as"),
+        "a plain CSV needs no word on its dialect:\n{report}"
+    );
     assert!(want.len() >= 8, "{want:?}");
     for (input, name, extra, read_as) in [
-        (&semicolon, "semicolon.json", &[][..], "`;`-separated, decimal comma"),
+        (
+            &semicolon,
+            "semicolon.json",
+            &[][..],
+            "`;`-separated, decimal comma",
+        ),
         (&tab, "tab.json", &[][..], "tab-separated, decimal comma"),
-        (&semicolon, "given.json", &["--separator", "semicolon", "--decimal", "comma"][..], "`;`-separated, decimal comma"),
+        (
+            &semicolon,
+            "given.json",
+            &["--separator", "semicolon", "--decimal", "comma"][..],
+            "`;`-separated, decimal comma",
+        ),
     ] {
         let (report, got) = fit(input, name, extra);
-        assert!(report.contains(&format!("read as {read_as}")), "{name}:\n{report}");
-        assert_eq!(got, want, "{name}: the parameters of the original, bit for bit");
+        assert!(
+            report.contains(&format!("read as {read_as}")),
+            "{name}:\n{report}"
+        );
+        assert_eq!(
+            got, want,
+            "{name}: the parameters of the original, bit for bit"
+        );
     }
 
     let day = semicolon.join("day02.csv");
     let european = ok(&["validate", s(&dir.join("original.json")), s(&day)]);
-    let plain = ok(&["validate", s(&dir.join("original.json")), s(&original.join("day02.csv"))]);
-    let rmse = |text: &str| text.lines().find(|l| l.contains("RMSE current")).map(str::to_string);
+    let plain = ok(&[
+        "validate",
+        s(&dir.join("original.json")),
+        s(&original.join("day02.csv")),
+    ]);
+    let rmse = |text: &str| {
+        text.lines()
+            .find(|l| l.contains("RMSE current"))
+            .map(str::to_string)
+    };
     assert_eq!(rmse(&european), rmse(&plain));
     assert!(rmse(&plain).is_some(), "{plain}");
 }
@@ -248,14 +383,36 @@ fn a_wrong_or_contradicting_dialect_is_refused_with_a_hint() {
     let out = tool(&["fit", s(&path), "--separator", "comma"]);
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains("no column `time`") && err.contains("read as `,`-separated") && err.contains("--separator"), "{err}");
-    fails(&["fit", s(&path), "--separator", "comma", "--decimal", "comma"], "both the separator and the decimal mark");
+    assert!(
+        err.contains("no column `time`")
+            && err.contains("read as `,`-separated")
+            && err.contains("--separator"),
+        "{err}"
+    );
+    fails(
+        &[
+            "fit",
+            s(&path),
+            "--separator",
+            "comma",
+            "--decimal",
+            "comma",
+        ],
+        "both the separator and the decimal mark",
+    );
     fails(&["fit", s(&path), "--decimal", "dot"], "--decimal `dot`");
     // Given as point, decimal commas are text: every row is skipped, and the message says why.
     let out = tool(&["fit", s(&path), "--decimal", "point"]);
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    for want in ["no usable row", "2 rows read", "non-numeric text 2, first", "eu.csv:2", "read as `;`-separated, decimal point", "--decimal"] {
+    for want in [
+        "no usable row",
+        "2 rows read",
+        "non-numeric text 2, first",
+        "eu.csv:2",
+        "read as `;`-separated, decimal point",
+        "--decimal",
+    ] {
         assert!(err.contains(want), "missing `{want}`: {err}");
     }
 }

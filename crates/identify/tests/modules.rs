@@ -4,11 +4,11 @@
 use std::path::PathBuf;
 
 use aem_identify::columns::ColumnMap;
-use aem_model::parameter_file::{ParameterFile, Source};
-use aem_model::ModuleParameter;
 use aem_identify::read::{self, ReadOptions};
 use aem_identify::synthetic::{self, CampaignSpec, CsvOptions};
 use aem_identify::{self as identify, FitOptions};
+use aem_model::parameter_file::{ParameterFile, Source};
+use aem_model::ModuleParameter;
 use aem_model::Parameters;
 
 fn module_truth(i: usize) -> Parameters {
@@ -36,9 +36,16 @@ fn three_modules_in_one_log_are_fitted_separately_with_their_spread() {
         // One file per day holding the three modules' rows one after another.
         let mut text = String::new();
         for (i, id) in ids.iter().enumerate() {
-            let spec = CampaignSpec { truth: module_truth(i), seed: 100 + i as u64, ..CampaignSpec::default() };
+            let spec = CampaignSpec {
+                truth: module_truth(i),
+                seed: 100 + i as u64,
+                ..CampaignSpec::default()
+            };
             let day = synthetic::generate_day(&spec, d).unwrap();
-            let options = CsvOptions { module: Some(("unit".into(), id.to_string())), ..CsvOptions::default() };
+            let options = CsvOptions {
+                module: Some(("unit".into(), id.to_string())),
+                ..CsvOptions::default()
+            };
             let (csv, _) = synthetic::to_csv(&day, &options);
             if i > 0 {
                 text.push_str(csv.split_once('\n').unwrap().1);
@@ -49,28 +56,64 @@ fn three_modules_in_one_log_are_fitted_separately_with_their_spread() {
         std::fs::write(dir.join(format!("plant_day{d}.csv")), text).unwrap();
     }
     let files = read::expand_inputs(&[dir]).unwrap();
-    let options = ReadOptions { columns: ColumnMap::with_mappings(&["module=unit"]).unwrap(), ..ReadOptions::default() };
+    let options = ReadOptions {
+        columns: ColumnMap::with_mappings(&["module=unit"]).unwrap(),
+        ..ReadOptions::default()
+    };
     let logs = read::read_files(&files, &options, &|| {}).unwrap();
     assert_eq!(logs.iter().map(|l| l.id.as_str()).collect::<Vec<_>>(), ids);
-    let fits: Vec<_> = logs.iter().map(|l| identify::fit_module(l, &FitOptions::default())).collect();
+    let fits: Vec<_> = logs
+        .iter()
+        .map(|l| identify::fit_module(l, &FitOptions::default()))
+        .collect();
     for (i, fit) in fits.iter().enumerate() {
         let truth = module_truth(i);
         let p = &fit.parameters;
         // Four days instead of ten: the targets, loosened by √(10/4).
-        assert!((p.gain / truth.gain - 1.0).abs() < 0.008, "{}: gain {}", fit.log.id, p.gain);
-        assert!((p.tau_pole1 / truth.tau_pole1 - 1.0).abs() < 0.05, "{}: tauPole1 {}", fit.log.id, p.tau_pole1);
-        assert!((p.ramp_up_limit / truth.ramp_up_limit - 1.0).abs() < 0.016, "{}: r {}", fit.log.id, p.ramp_up_limit);
-        assert!((p.voltage_intercept - truth.voltage_intercept).abs() < 0.1, "{}: V0 {}", fit.log.id, p.voltage_intercept);
+        assert!(
+            (p.gain / truth.gain - 1.0).abs() < 0.008,
+            "{}: gain {}",
+            fit.log.id,
+            p.gain
+        );
+        assert!(
+            (p.tau_pole1 / truth.tau_pole1 - 1.0).abs() < 0.05,
+            "{}: tauPole1 {}",
+            fit.log.id,
+            p.tau_pole1
+        );
+        assert!(
+            (p.ramp_up_limit / truth.ramp_up_limit - 1.0).abs() < 0.016,
+            "{}: r {}",
+            fit.log.id,
+            p.ramp_up_limit
+        );
+        assert!(
+            (p.voltage_intercept - truth.voltage_intercept).abs() < 0.1,
+            "{}: V0 {}",
+            fit.log.id,
+            p.voltage_intercept
+        );
     }
     // Module-to-module spread of the identified values.
     let spread = identify::spread(&fits);
     let gain = &spread["gain"];
     let gains: Vec<f64> = fits.iter().map(|f| f.parameters.gain).collect();
     assert_eq!(gain.unit, "A/%");
-    assert_eq!(gain.min, gains.iter().copied().fold(f64::INFINITY, f64::min));
+    assert_eq!(
+        gain.min,
+        gains.iter().copied().fold(f64::INFINITY, f64::min)
+    );
     assert!((gain.mean - gains.iter().sum::<f64>() / 3.0).abs() < 1e-12);
-    assert!(gain.cv_percent > 2.0 && gain.cv_percent < 4.0, "cv {}", gain.cv_percent);
-    assert!(!spread.contains_key("nominalCurrent"), "only identified parameters have a spread");
+    assert!(
+        gain.cv_percent > 2.0 && gain.cv_percent < 4.0,
+        "cv {}",
+        gain.cv_percent
+    );
+    assert!(
+        !spread.contains_key("nominalCurrent"),
+        "only identified parameters have a spread"
+    );
     let report = identify::report::render(&fits, Some(&spread));
     assert!(report.contains("Spread over 3 modules"), "{report}");
     for id in ids {
@@ -84,15 +127,27 @@ fn three_modules_in_one_log_are_fitted_separately_with_their_spread() {
     assert!(back.module(None).unwrap_err().contains("3 modules"));
     for (i, id) in ids.iter().enumerate() {
         let entry = back.module(Some(id)).unwrap();
-        let names: Vec<(&str, &str)> = entry.parameters.iter().map(|(n, e)| (n.as_str(), e.unit.as_str())).collect();
-        let mut want: Vec<(&str, &str)> = ModuleParameter::ALL.iter().map(|p| (p.name(), p.unit())).collect();
+        let names: Vec<(&str, &str)> = entry
+            .parameters
+            .iter()
+            .map(|(n, e)| (n.as_str(), e.unit.as_str()))
+            .collect();
+        let mut want: Vec<(&str, &str)> = ModuleParameter::ALL
+            .iter()
+            .map(|p| (p.name(), p.unit()))
+            .collect();
         want.sort();
         assert_eq!(names, want);
         assert_eq!(entry.parameters().unwrap(), fits[i].parameters);
         assert_eq!(entry.parameters["gain"].source, Source::Identified);
         assert!(entry.parameters["gain"].standard_error.unwrap() > 0.0);
         assert_eq!(entry.parameters["minSetpoint"].source, Source::Default);
-        assert!(entry.statistics["dynamics"]["stepsUsed"]["negative"].as_u64().unwrap() > 40);
+        assert!(
+            entry.statistics["dynamics"]["stepsUsed"]["negative"]
+                .as_u64()
+                .unwrap()
+                > 40
+        );
     }
     assert!(back.spread.unwrap().contains_key("tauPole2"));
 }

@@ -40,14 +40,20 @@ fn ten_days_recover_the_parameters_and_a_held_out_day() {
     let truth = spec.truth;
     let days = synthetic::generate_campaign(&spec, 10).unwrap();
     let dir = scratch("identify_recovery");
-    let options = CsvOptions { broken: true, ..CsvOptions::default() };
+    let options = CsvOptions {
+        broken: true,
+        ..CsvOptions::default()
+    };
     let written = synthetic::write_campaign(&dir, &days, &options).unwrap();
     // A file that is not CSV in the directory is ignored.
     std::fs::write(dir.join("notes.txt"), "not data").unwrap();
 
     let files = read::expand_inputs(&[dir.clone()]).unwrap();
     assert_eq!(files.len(), 10);
-    assert!(files.windows(2).all(|w| w[0] < w[1]), "daily files in name order");
+    assert!(
+        files.windows(2).all(|w| w[0] < w[1]),
+        "daily files in name order"
+    );
     let logs = read::read_files(&files, &ReadOptions::default(), &|| {}).unwrap();
     assert_eq!(logs.len(), 1);
     let log = &logs[0];
@@ -62,17 +68,33 @@ fn ten_days_recover_the_parameters_and_a_held_out_day() {
         acc
     });
     for (k, reason) in BadRow::ALL.iter().enumerate() {
-        assert_eq!(log.bad.count(*reason), injected.bad[k], "{}", reason.label());
-        assert!(injected.bad[k] >= 10, "the campaign injects {} rows of {}", injected.bad[k], reason.label());
+        assert_eq!(
+            log.bad.count(*reason),
+            injected.bad[k],
+            "{}",
+            reason.label()
+        );
+        assert!(
+            injected.bad[k] >= 10,
+            "the campaign injects {} rows of {}",
+            injected.bad[k],
+            reason.label()
+        );
     }
     assert_eq!(log.bad.gaps, injected.gaps);
     assert_eq!(log.rows_read, injected.rows);
     assert_eq!(log.rows_used + log.bad.total(), log.rows_read);
 
     let fit = identify::fit_module(log, &FitOptions::default());
-    let Stage::Done(d) = &fit.dynamics else { panic!("dynamics: {:?}", fit.dynamics) };
-    let Stage::Done(p) = &fit.polarisation else { panic!("polarisation: {:?}", fit.polarisation) };
-    let Stage::Done(h) = &fit.hydrogen else { panic!("hydrogen: {:?}", fit.hydrogen) };
+    let Stage::Done(d) = &fit.dynamics else {
+        panic!("dynamics: {:?}", fit.dynamics)
+    };
+    let Stage::Done(p) = &fit.polarisation else {
+        panic!("polarisation: {:?}", fit.polarisation)
+    };
+    let Stage::Done(h) = &fit.hydrogen else {
+        panic!("hydrogen: {:?}", fit.hydrogen)
+    };
     let ramp = d.ramp.as_ref().unwrap();
     let report = identify::report::render(std::slice::from_ref(&fit), None);
     println!("{report}");
@@ -80,17 +102,44 @@ fn ten_days_recover_the_parameters_and_a_held_out_day() {
     let checks = [
         ("gain", rel(d.gain.value, truth.gain), GAIN),
         ("rampUpLimit", rel(ramp.value, truth.ramp_up_limit), RAMP),
-        ("tauPole1", rel(d.tau_pole1.value, truth.tau_pole1), TAU_POLE1),
+        (
+            "tauPole1",
+            rel(d.tau_pole1.value, truth.tau_pole1),
+            TAU_POLE1,
+        ),
         ("tauZero", rel(d.tau_zero.value, truth.tau_zero), TAU_ZERO),
-        ("tauPole2", rel(d.tau_pole2.value, truth.tau_pole2), TAU_POLE2),
-        ("tauZero/tauPole2", rel(d.ratio_zero_pole2.value, truth.tau_zero / truth.tau_pole2), RATIO),
-        ("voltageIntercept [V]", (p.voltage_intercept.value - truth.voltage_intercept).abs(), VOLTAGE_INTERCEPT_V),
-        ("ohmicResistance", rel(p.ohmic_resistance.value, truth.ohmic_resistance), RESISTANCE),
-        ("h2Coefficient", rel(h.coefficient.value, truth.h2_coefficient), H2_COEFFICIENT),
+        (
+            "tauPole2",
+            rel(d.tau_pole2.value, truth.tau_pole2),
+            TAU_POLE2,
+        ),
+        (
+            "tauZero/tauPole2",
+            rel(d.ratio_zero_pole2.value, truth.tau_zero / truth.tau_pole2),
+            RATIO,
+        ),
+        (
+            "voltageIntercept [V]",
+            (p.voltage_intercept.value - truth.voltage_intercept).abs(),
+            VOLTAGE_INTERCEPT_V,
+        ),
+        (
+            "ohmicResistance",
+            rel(p.ohmic_resistance.value, truth.ohmic_resistance),
+            RESISTANCE,
+        ),
+        (
+            "h2Coefficient",
+            rel(h.coefficient.value, truth.h2_coefficient),
+            H2_COEFFICIENT,
+        ),
     ];
     for (name, error, target) in checks {
         println!("{name:<22} error {error:.2e}  target {target:.1e}");
-        assert!(error <= target, "{name}: error {error:.3e} exceeds {target:.1e}\n{report}");
+        assert!(
+            error <= target,
+            "{name}: error {error:.3e} exceeds {target:.1e}\n{report}"
+        );
     }
     // The standard errors are honest: each estimate lies within 4 standard errors of the truth.
     for (name, est, want) in [
@@ -100,33 +149,73 @@ fn ten_days_recover_the_parameters_and_a_held_out_day() {
         ("tauPole2", d.tau_pole2, truth.tau_pole2),
         ("rampUpLimit", *ramp, truth.ramp_up_limit),
     ] {
-        assert!((est.value - want).abs() <= 4.0 * est.standard_error, "{name}: {} ± {} vs {want}", est.value, est.standard_error);
+        assert!(
+            (est.value - want).abs() <= 4.0 * est.standard_error,
+            "{name}: {} ± {} vs {want}",
+            est.value,
+            est.standard_error
+        );
     }
     // The flat direction is reported: τz and τp2 are strongly correlated.
-    assert!(d.correlation[1][3] > 0.95, "corr(τz, τp2) = {}", d.correlation[1][3]);
-    assert!(fit.estimates.keys().all(|n| !fit.is_poorly_determined(n)), "nothing is poorly determined here");
+    assert!(
+        d.correlation[1][3] > 0.95,
+        "corr(τz, τp2) = {}",
+        d.correlation[1][3]
+    );
+    assert!(
+        fit.estimates.keys().all(|n| !fit.is_poorly_determined(n)),
+        "nothing is poorly determined here"
+    );
     // The disturbed steps are removed as outliers; the residual RMSE is the sensor noise.
     let disturbed: usize = days.iter().map(|d| d.disturbed).sum();
-    assert!(d.outliers.0 + d.outliers.1 >= disturbed.min(1), "{disturbed} disturbed, {:?} removed", d.outliers);
-    assert!((d.rmse_total / spec.current_noise - 1.0).abs() < 0.05, "step RMSE {}", d.rmse_total);
+    assert!(
+        d.outliers.0 + d.outliers.1 >= disturbed.min(1),
+        "{disturbed} disturbed, {:?} removed",
+        d.outliers
+    );
+    assert!(
+        (d.rmse_total / spec.current_noise - 1.0).abs() < 0.05,
+        "step RMSE {}",
+        d.rmse_total
+    );
     assert!(d.used.0 > 150 && d.used.1 > 150, "steps used {:?}", d.used);
     // The structure check prefers the paper's second order.
-    let Stage::Done(s) = &fit.structure else { panic!("structure: {:?}", fit.structure) };
+    let Stage::Done(s) = &fit.structure else {
+        panic!("structure: {:?}", fit.structure)
+    };
     assert_eq!(s.best_order(), Some(2), "{report}");
-    assert!(s.candidates[0].rmse > 2.0 * s.candidates[1].rmse, "first order fits clearly worse");
+    assert!(
+        s.candidates[0].rmse > 2.0 * s.candidates[1].rmse,
+        "first order fits clearly worse"
+    );
     // Faraday efficiency of the 23-cell stack.
     assert!((h.faraday_efficiency - truth.h2_coefficient / 9.6174).abs() < 1e-3);
 
     // Held-out day 11 (never seen by the fit), simulated with the identified parameters. Its
     // steps are undisturbed: a disturbance is an event the model does not describe.
-    let clean = CampaignSpec { disturbed_fraction: 0.0, ..spec.clone() };
+    let clean = CampaignSpec {
+        disturbed_fraction: 0.0,
+        ..spec.clone()
+    };
     let held_out = synthetic::generate_day(&clean, 10).unwrap();
     let day_file = dir.join("held_out.csv.txt");
-    std::fs::write(&day_file, synthetic::to_csv(&held_out, &CsvOptions::default()).0).unwrap();
+    std::fs::write(
+        &day_file,
+        synthetic::to_csv(&held_out, &CsvOptions::default()).0,
+    )
+    .unwrap();
     let day = read::read_file(&day_file, &ReadOptions::default()).unwrap();
-    let (v, trace) = validate::validate(&fit.parameters, &day[0], &ValidateOptions::default()).unwrap();
-    println!("held-out RMSE: current {:.4} A, voltage {:?} V, power {:?} W, h2 {:?} Nl/h", v.current, v.voltage, v.power, v.h2_flow);
-    assert!(v.current <= HELD_OUT_NOISE_FACTOR * spec.current_noise, "held-out current RMSE {}", v.current);
+    let (v, trace) =
+        validate::validate(&fit.parameters, &day[0], &ValidateOptions::default()).unwrap();
+    println!(
+        "held-out RMSE: current {:.4} A, voltage {:?} V, power {:?} W, h2 {:?} Nl/h",
+        v.current, v.voltage, v.power, v.h2_flow
+    );
+    assert!(
+        v.current <= HELD_OUT_NOISE_FACTOR * spec.current_noise,
+        "held-out current RMSE {}",
+        v.current
+    );
     assert!(v.current >= 0.9 * spec.current_noise);
     assert!(v.voltage.unwrap() < 0.2 && v.h2_flow.unwrap() < 2.0 && v.power.unwrap() < 15.0);
     assert_eq!(trace.rows.len(), v.running_rows);

@@ -77,7 +77,14 @@ pub struct Limits {
 
 /// Number of modules that should run for a total demand `total` (module units, summed over
 /// the hub), given the count that ran before. `always_on`: belowMinimum = 0, never stop.
-pub fn running_count(policy: DispatchPolicy, modules: u32, total: f64, limits: Limits, previous: u32, always_on: bool) -> u32 {
+pub fn running_count(
+    policy: DispatchPolicy,
+    modules: u32,
+    total: f64,
+    limits: Limits,
+    previous: u32,
+    always_on: bool,
+) -> u32 {
     if always_on {
         return modules;
     }
@@ -105,7 +112,9 @@ pub fn running_count(policy: DispatchPolicy, modules: u32, total: f64, limits: L
             };
             let need = count(total);
             let no_lower_than_min = (total / limits.min).floor().min(n) as u32;
-            let keep = count(total + limits.band * n).min(no_lower_than_min).max(need);
+            let keep = count(total + limits.band * n)
+                .min(no_lower_than_min)
+                .max(need);
             previous.clamp(need, keep)
         }
     }
@@ -116,7 +125,12 @@ pub fn running_count(policy: DispatchPolicy, modules: u32, total: f64, limits: L
 /// for R = 0), divided by K: u = 2P / (K·(V0 + √(V0² + 4RP))), one division. Negative powers
 /// give 0.
 pub fn setpoint_for_power(params: &Parameters, power: f64) -> f64 {
-    setpoint_at_power(params.voltage_intercept, params.ohmic_resistance, params.gain, power)
+    setpoint_at_power(
+        params.voltage_intercept,
+        params.ohmic_resistance,
+        params.gain,
+        power,
+    )
 }
 
 /// [`setpoint_for_power`] from V0 [V], R [Ω] and K [A/%] (for the lanes, which hold no
@@ -142,7 +156,11 @@ pub fn power_at_setpoint(params: &Parameters, setpoint: f64) -> f64 {
 mod tests {
     use super::*;
 
-    const L: Limits = Limits { min: 60.0, max: 100.0, band: 5.0 };
+    const L: Limits = Limits {
+        min: 60.0,
+        max: 100.0,
+        band: 5.0,
+    };
 
     #[test]
     fn power_inversion_is_the_inverse_of_the_polarisation_curve() {
@@ -151,7 +169,10 @@ mod tests {
             let back = setpoint_for_power(&p, power_at_setpoint(&p, u));
             assert!((back - u).abs() < 1e-12, "{u} vs {back}");
         }
-        let ohmic_free = Parameters { ohmic_resistance: 0.0, ..p };
+        let ohmic_free = Parameters {
+            ohmic_resistance: 0.0,
+            ..p
+        };
         assert!((setpoint_for_power(&ohmic_free, 1000.0) - 1000.0 / 35.75 / 0.534).abs() < 1e-12);
         assert_eq!(setpoint_for_power(&p, -5.0), 0.0);
     }
@@ -162,8 +183,16 @@ mod tests {
         assert_eq!(running_count(S, 10, 250.0, L, 0, false), 3);
         assert_eq!(running_count(S, 10, 50.0, L, 0, false), 0);
         // The hub's band: 10 modules × 5 = 50 module-%.
-        assert_eq!(running_count(S, 10, 57.0, L, 1, false), 0, "one module would run below its minimum");
-        assert_eq!(running_count(S, 10, 160.0, L, 3, false), 2, "three would run at 53 %");
+        assert_eq!(
+            running_count(S, 10, 57.0, L, 1, false),
+            0,
+            "one module would run below its minimum"
+        );
+        assert_eq!(
+            running_count(S, 10, 160.0, L, 3, false),
+            2,
+            "three would run at 53 %"
+        );
         assert_eq!(running_count(S, 10, 185.0, L, 3, false), 3); // 185 + 50 > 200: keep 3
         assert_eq!(running_count(S, 10, 149.0, L, 3, false), 2); // 149 + 50 < 200
         assert_eq!(running_count(S, 10, 149.0, L, 1, false), 2); // rising: ⌈149/100⌉
@@ -184,6 +213,9 @@ mod tests {
     #[test]
     fn policy_codes_are_checked() {
         assert_eq!(DispatchPolicy::from_code(3), Ok(DispatchPolicy::Rotation));
-        assert!(DispatchPolicy::from_code(0).unwrap_err().to_string().contains("dispatch = 0"));
+        assert!(DispatchPolicy::from_code(0)
+            .unwrap_err()
+            .to_string()
+            .contains("dispatch = 0"));
     }
 }

@@ -94,8 +94,21 @@ pub struct StepFactors {
 impl Default for StepFactors {
     fn default() -> Self {
         // NaN never compares equal, so the first step always computes its factors.
-        let tracking = TrackingStep { h: f64::NAN, ..TrackingStep::ZERO };
-        StepFactors { h: f64::NAN, decay: Decay { e1: 1.0, e2: 1.0, d1: 0.0, d2: 0.0, d12: 0.0 }, tracking }
+        let tracking = TrackingStep {
+            h: f64::NAN,
+            ..TrackingStep::ZERO
+        };
+        StepFactors {
+            h: f64::NAN,
+            decay: Decay {
+                e1: 1.0,
+                e2: 1.0,
+                d1: 0.0,
+                d2: 0.0,
+                d12: 0.0,
+            },
+            tracking,
+        }
     }
 }
 
@@ -187,7 +200,11 @@ impl TrackingStep {
         let z2 = base + dev2 * self.e2;
         let lin = self.w1 * dev1 + self.w2 * dev2;
         TrackedStep {
-            state: CurrentState { z1, z2, current: self.a * z1 + self.b * z2 },
+            state: CurrentState {
+                z1,
+                z2,
+                current: self.a * z1 + self.b * z2,
+            },
             charge: base * self.h + lin,
             current_squared: base * base * self.h
                 + 2.0 * base * lin
@@ -240,9 +257,17 @@ impl CurrentDynamics {
     pub fn steady_state(&self, setpoint: f64) -> CurrentState {
         let y = self.gain * setpoint;
         if self.compensated {
-            return CurrentState { z1: y / self.a, z2: 0.0, current: y };
+            return CurrentState {
+                z1: y / self.a,
+                z2: 0.0,
+                current: y,
+            };
         }
-        CurrentState { z1: y, z2: y, current: y }
+        CurrentState {
+            z1: y,
+            z2: y,
+            current: y,
+        }
     }
 
     /// Unlimited transfer-function output I_tf = a·z1 + b·z2 [A].
@@ -253,7 +278,13 @@ impl CurrentDynamics {
     fn decay(&self, length: f64) -> Decay {
         let m1 = (-self.lambda1 * length).exp_m1();
         let m2 = (-self.lambda2 * length).exp_m1();
-        Decay { e1: 1.0 + m1, e2: 1.0 + m2, d1: -m1, d2: -m2, d12: -(m1 + m2 + m1 * m2) }
+        Decay {
+            e1: 1.0 + m1,
+            e2: 1.0 + m2,
+            d1: -m1,
+            d2: -m2,
+            d12: -(m1 + m2 + m1 * m2),
+        }
     }
 
     /// w1 = a τp1 (1 − e1), w2 = b τp2 (1 − e2), q11 = a²τp1/2 (1 − e1)(1 + e1),
@@ -302,17 +333,30 @@ impl CurrentDynamics {
     ///          + 2ab/(λ1+λ2) · δ1 δ2 (1 − e^(−(λ1+λ2) L))
     #[inline]
     #[allow(clippy::too_many_arguments)]
-    fn track_integrals(&self, y: f64, s: f64, dev1: f64, dev2: f64, length: f64, decay: &Decay) -> (f64, f64) {
+    fn track_integrals(
+        &self,
+        y: f64,
+        s: f64,
+        dev1: f64,
+        dev2: f64,
+        length: f64,
+        decay: &Decay,
+    ) -> (f64, f64) {
         let w = self.weights(decay);
         let lin = w.w1 * dev1 + w.w2 * dev2;
         let mut charge = y * length + lin;
-        let mut squared = y * y * length + 2.0 * y * lin + w.q11 * dev1 * dev1 + w.q22 * dev2 * dev2 + w.q12 * dev1 * dev2;
+        let mut squared = y * y * length
+            + 2.0 * y * lin
+            + w.q11 * dev1 * dev1
+            + w.q22 * dev2 * dev2
+            + w.q12 * dev1 * dev2;
         if s != 0.0 {
             let (l2, l3) = (length * length, length * length * length);
             let j1 = self.tau1 * self.tau1 * ramp_moment(self.lambda1 * length, decay.e1);
             let j2 = self.tau2 * self.tau2 * ramp_moment(self.lambda2 * length, decay.e2);
             charge += 0.5 * s * l2;
-            squared += y * s * l2 + s * s * l3 / 3.0 + 2.0 * s * (self.a * dev1 * j1 + self.b * dev2 * j2);
+            squared +=
+                y * s * l2 + s * s * l3 / 3.0 + 2.0 * s * (self.a * dev1 * j1 + self.b * dev2 * j2);
         }
         (charge, squared)
     }
@@ -339,12 +383,20 @@ impl CurrentDynamics {
         }
         if factors.h != h {
             let decay = self.decay(h);
-            *factors = StepFactors { h, decay, tracking: self.tracking_from(h, &decay) };
+            *factors = StepFactors {
+                h,
+                decay,
+                tracking: self.tracking_from(h, &decay),
+            };
         }
         let fast = factors.tracking.step(state, u);
         if fast.tracks {
             *state = fast.state;
-            return CurrentIntegrals { charge: fast.charge, current_squared: fast.current_squared, ramp_time: 0.0 };
+            return CurrentIntegrals {
+                charge: fast.charge,
+                current_squared: fast.current_squared,
+                ramp_time: 0.0,
+            };
         }
         let decay = factors.decay;
         self.advance_segment(state, u, 0.0, h, &decay)
@@ -352,15 +404,27 @@ impl CurrentDynamics {
 
     /// The same dynamics without compensation.
     fn plain(&self) -> CurrentDynamics {
-        CurrentDynamics { compensated: false, ..*self }
+        CurrentDynamics {
+            compensated: false,
+            ..*self
+        }
     }
 
     /// Advances `state` by `h` > 0 seconds with a setpoint that rises linearly from `u0` [%]
     /// at `slope` [%/s] (an interpolated input), returning the exact integrals. The caller
     /// keeps the setpoint inside the operating window over the step, and holds the setpoint of
     /// compensated dynamics (their plants take no slope).
-    pub fn advance_linear(&self, state: &mut CurrentState, u0: f64, slope: f64, h: f64) -> CurrentIntegrals {
-        debug_assert!(!self.compensated, "compensated dynamics take held setpoints only");
+    pub fn advance_linear(
+        &self,
+        state: &mut CurrentState,
+        u0: f64,
+        slope: f64,
+        h: f64,
+    ) -> CurrentIntegrals {
+        debug_assert!(
+            !self.compensated,
+            "compensated dynamics take held setpoints only"
+        );
         self.advance_segment(state, u0, slope, h, &self.decay(h))
     }
 
@@ -368,24 +432,43 @@ impl CurrentDynamics {
     ///   zi(τ) = K u0 + s(τ − τi) + δi e^(−λi τ),  s = K v,  δi = zi(0) − K u0 + s τi,
     /// so I_tf(τ) = y + sτ + a δ1 e^(−λ1 τ) + b δ2 e^(−λ2 τ) with y = K u0 − s(a τp1 + b τp2).
     #[inline]
-    fn advance_segment(&self, state: &mut CurrentState, u0: f64, v: f64, h: f64, decay: &Decay) -> CurrentIntegrals {
+    fn advance_segment(
+        &self,
+        state: &mut CurrentState,
+        u0: f64,
+        v: f64,
+        h: f64,
+        decay: &Decay,
+    ) -> CurrentIntegrals {
         let base = self.gain * u0;
         let s = self.gain * v;
         let y = base - s * (self.k1 + self.k2);
-        let (dev1, dev2) = (state.z1 - base + s * self.tau1, state.z2 - base + s * self.tau2);
+        let (dev1, dev2) = (
+            state.z1 - base + s * self.tau1,
+            state.z2 - base + s * self.tau2,
+        );
         let tf0 = y + self.a * dev1 + self.b * dev2;
         let tracking = tf0 - state.current <= 1e-12 * tf0.abs().max(1.0);
         // Largest possible slope of I_tf on the step; at most r means the limit never binds.
-        let max_rise = s + (-self.lambda1 * self.a * dev1).max(0.0) + (-self.lambda2 * self.b * dev2).max(0.0);
+        let max_rise =
+            s + (-self.lambda1 * self.a * dev1).max(0.0) + (-self.lambda2 * self.b * dev2).max(0.0);
         state.z1 = base + s * (h - self.tau1) + dev1 * decay.e1;
         state.z2 = base + s * (h - self.tau2) + dev2 * decay.e2;
         let tf_end = self.unlimited_current(state);
         if tracking && max_rise <= self.ramp {
             let (charge, current_squared) = self.track_integrals(y, s, dev1, dev2, h, decay);
             state.current = tf_end;
-            return CurrentIntegrals { charge, current_squared, ramp_time: 0.0 };
+            return CurrentIntegrals {
+                charge,
+                current_squared,
+                ramp_time: 0.0,
+            };
         }
-        let start = if tracking { tf0 } else { state.current.min(tf0) };
+        let start = if tracking {
+            tf0
+        } else {
+            state.current.min(tf0)
+        };
         let (integrals, limited_end) = self.limited_step(y, s, dev1, dev2, start, h, decay);
         // I(h) = r·h + M(h) from the running minimum, never above I_tf(h).
         state.current = limited_end.min(tf_end);
@@ -420,11 +503,18 @@ impl CurrentDynamics {
             e2_len: decay.e2,
         };
         // M: running minimum of h(τ) = I_tf(τ) − rτ; the current is I(τ) = M + rτ.
-        let mut walk = RunningMinimum { m: start, out: CurrentIntegrals::default() };
+        let mut walk = RunningMinimum {
+            m: start,
+            out: CurrentIntegrals::default(),
+        };
         // h'' vanishes at most once (the inflection); between 0, it and len, h' is monotone, so
         // h is monotone, rises then falls, or falls then rises on each sub-interval.
         let mut p = curve.point(0.0);
-        for q in curve.inflection().into_iter().chain(std::iter::once(curve.point(h))) {
+        for q in curve
+            .inflection()
+            .into_iter()
+            .chain(std::iter::once(curve.point(h)))
+        {
             if q.t > p.t {
                 let (sp, sq) = (curve.derivatives(&p)[1], curve.derivatives(&q)[1]);
                 if sp > 0.0 && sq < 0.0 {
@@ -504,7 +594,15 @@ impl CurrentDynamics {
                 hq - m,
             );
             self.add_ramp(&mut walk.out, m, p.t, crossing);
-            self.add_track(&mut walk.out, curve, dev1, dev2, &curve.point(crossing), q.t, decay);
+            self.add_track(
+                &mut walk.out,
+                curve,
+                dev1,
+                dev2,
+                &curve.point(crossing),
+                q.t,
+                decay,
+            );
             walk.m = hq;
         }
     }
@@ -515,7 +613,8 @@ impl CurrentDynamics {
         let i0 = m + self.ramp * s0;
         let r = self.ramp;
         out.charge += i0 * length + 0.5 * r * length * length;
-        out.current_squared += i0 * i0 * length + i0 * r * length * length + r * r * length.powi(3) / 3.0;
+        out.current_squared +=
+            i0 * i0 * length + i0 * r * length * length + r * r * length.powi(3) / 3.0;
         out.ramp_time += length;
     }
 
@@ -533,9 +632,20 @@ impl CurrentDynamics {
         step: &Decay,
     ) {
         let length = s1 - start.t;
-        let segment = if start.t == 0.0 && s1 == curve.len { *step } else { self.decay(length) };
+        let segment = if start.t == 0.0 && s1 == curve.len {
+            *step
+        } else {
+            self.decay(length)
+        };
         let y = curve.y + curve.s * start.t;
-        let (charge, squared) = self.track_integrals(y, curve.s, dev1 * start.e1, dev2 * start.e2, length, &segment);
+        let (charge, squared) = self.track_integrals(
+            y,
+            curve.s,
+            dev1 * start.e1,
+            dev2 * start.e2,
+            length,
+            &segment,
+        );
         out.charge += charge;
         out.current_squared += squared;
     }
@@ -593,11 +703,23 @@ impl Curve {
     /// The point at τ; free at the ends of the step.
     fn point(&self, t: f64) -> Point {
         if t == 0.0 {
-            Point { t, e1: 1.0, e2: 1.0 }
+            Point {
+                t,
+                e1: 1.0,
+                e2: 1.0,
+            }
         } else if t == self.len {
-            Point { t, e1: self.e1_len, e2: self.e2_len }
+            Point {
+                t,
+                e1: self.e1_len,
+                e2: self.e2_len,
+            }
         } else {
-            Point { t, e1: (-self.l1 * t).exp(), e2: (-self.l2 * t).exp() }
+            Point {
+                t,
+                e1: (-self.l1 * t).exp(),
+                e2: (-self.l2 * t).exp(),
+            }
         }
     }
 
@@ -665,7 +787,11 @@ mod tests {
         for &t in &[0.5, 1.0, 7.0, 60.0, 300.0, 1000.0] {
             let (s, _) = simulate(&d, 100.0, 70.0, 0.5, t);
             let want = step_response(&p, 100.0, 70.0, t);
-            assert!((s.current - want).abs() < 1e-9, "t={t}: {} vs {want}", s.current);
+            assert!(
+                (s.current - want).abs() < 1e-9,
+                "t={t}: {} vs {want}",
+                s.current
+            );
         }
     }
 
@@ -680,14 +806,26 @@ mod tests {
         assert!(f(lo) > 0.0 && f(hi) < 0.0);
         for _ in 0..200 {
             let mid = 0.5 * (lo + hi);
-            if f(mid) > 0.0 { lo = mid } else { hi = mid }
+            if f(mid) > 0.0 {
+                lo = mid
+            } else {
+                hi = mid
+            }
         }
         let meet = lo;
         for &t in &[1.0, 10.0, meet - 1.0, meet + 1.0, meet + 200.0, 2000.0] {
             let t = (t * 4.0_f64).round() / 4.0;
             let (s, _) = simulate(&d, u0, u1, 0.25, t);
-            let want = if t < meet { p.gain * u0 + p.ramp_up_limit * t } else { step_response(&p, u0, u1, t) };
-            assert!((s.current - want).abs() < 1e-9, "t={t}: {} vs {want}", s.current);
+            let want = if t < meet {
+                p.gain * u0 + p.ramp_up_limit * t
+            } else {
+                step_response(&p, u0, u1, t)
+            };
+            assert!(
+                (s.current - want).abs() < 1e-9,
+                "t={t}: {} vs {want}",
+                s.current
+            );
         }
     }
 
@@ -702,9 +840,16 @@ mod tests {
         let first_order = |u0: f64, u1: f64, t: f64| k * u1 + k * (u0 - u1) * (-t / t1).exp();
         for &t in &[0.5, 2.0, 7.5, 30.0, 400.0] {
             let (s, charge) = simulate(&d, 90.0, 60.0, 0.5, t);
-            assert!((s.current - first_order(90.0, 60.0, t)).abs() < 1e-9, "t={t}: {}", s.current);
+            assert!(
+                (s.current - first_order(90.0, 60.0, t)).abs() < 1e-9,
+                "t={t}: {}",
+                s.current
+            );
             let want = k * 60.0 * t + k * 30.0 * t1 * (1.0 - (-t / t1).exp());
-            assert!((charge - want).abs() < 1e-9 * want, "t={t}: charge {charge} vs {want}");
+            assert!(
+                (charge - want).abs() < 1e-9 * want,
+                "t={t}: charge {charge} vs {want}"
+            );
         }
         // Rising 60 → 61 %: the first order rises faster than r at first, so the current ramps
         // from K·60 until K·60 + r t meets it.
@@ -712,14 +857,32 @@ mod tests {
         let (mut lo, mut hi) = (1e-6, 100.0);
         for _ in 0..200 {
             let mid = 0.5 * (lo + hi);
-            if f(mid) > 0.0 { lo = mid } else { hi = mid }
+            if f(mid) > 0.0 {
+                lo = mid
+            } else {
+                hi = mid
+            }
         }
         for &t in &[0.5, 1.0, 2.0, 4.0, 10.0, 60.0] {
             let (s, _) = simulate(&d, 60.0, 61.0, 0.25, t);
-            let want = if t < lo { k * 60.0 + r * t } else { first_order(60.0, 61.0, t) };
-            assert!((s.current - want).abs() < 1e-9, "t={t}: {} vs {want}", s.current);
+            let want = if t < lo {
+                k * 60.0 + r * t
+            } else {
+                first_order(60.0, 61.0, t)
+            };
+            assert!(
+                (s.current - want).abs() < 1e-9,
+                "t={t}: {} vs {want}",
+                s.current
+            );
         }
-        let schedule = [(100.0, 30.0), (60.0, 45.0), (85.0, 61.0), (60.0, 17.0), (100.0, 300.0)];
+        let schedule = [
+            (100.0, 30.0),
+            (60.0, 45.0),
+            (85.0, 61.0),
+            (60.0, 17.0),
+            (100.0, 300.0),
+        ];
         let run = |h: f64| {
             let mut s = d.steady_state(80.0);
             let mut f = StepFactors::default();
@@ -728,7 +891,10 @@ mod tests {
                 for _ in 0..(dur / h).round() as usize {
                     d.advance(&mut s, u, h, &mut f);
                     let i_tf = d.unlimited_current(&s);
-                    assert!(i_tf >= k * 60.0 - 1e-9 && i_tf <= k * 100.0 + 1e-9, "I_tf {i_tf} left the window");
+                    assert!(
+                        i_tf >= k * 60.0 - 1e-9 && i_tf <= k * 100.0 + 1e-9,
+                        "I_tf {i_tf} left the window"
+                    );
                     assert!(s.current <= i_tf + 1e-9);
                 }
                 out.push(s.current);
@@ -746,7 +912,13 @@ mod tests {
     #[test]
     fn step_size_does_not_change_results() {
         let (_, d) = paper();
-        let schedule = [(100.0, 120.0), (60.0, 300.0), (85.0, 60.0), (65.0, 420.0), (100.0, 600.0)];
+        let schedule = [
+            (100.0, 120.0),
+            (60.0, 300.0),
+            (85.0, 60.0),
+            (65.0, 420.0),
+            (100.0, 600.0),
+        ];
         let run = |h: f64| {
             let mut s = d.steady_state(80.0);
             let mut f = StepFactors::default();
@@ -763,7 +935,12 @@ mod tests {
         let reference = run(60.0);
         for h in [0.01, 0.1, 1.0, 5.0, 20.0] {
             for (i, (got, want)) in run(h).iter().zip(&reference).enumerate() {
-                assert!((got.0 - want.0).abs() < 1e-9, "h={h} segment {i}: {} vs {}", got.0, want.0);
+                assert!(
+                    (got.0 - want.0).abs() < 1e-9,
+                    "h={h} segment {i}: {} vs {}",
+                    got.0,
+                    want.0
+                );
                 assert!((got.1 - want.1).abs() < 1e-6 * want.1, "h={h} charge {i}");
             }
         }

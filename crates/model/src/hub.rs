@@ -13,7 +13,9 @@
 
 use std::cmp::Ordering;
 
-use super::dispatch::{power_at_setpoint, running_count, setpoint_for_power, Demand, DispatchPolicy, Limits};
+use super::dispatch::{
+    power_at_setpoint, running_count, setpoint_for_power, Demand, DispatchPolicy, Limits,
+};
 use super::dynamics::{CurrentDynamics, StepFactors};
 use super::lanes::{LaneBank, Share, LANES};
 use super::module::StepError;
@@ -154,12 +156,20 @@ impl Hub {
     /// A hub of `config.n_modules` identical modules with parameters `params`, in the state
     /// the dispatch asks for at t = 0 under `demand`: running modules Steady in steady state,
     /// the others Idle.
-    pub fn new(params: Parameters, config: HubConfig, demand: Demand) -> Result<Self, ParameterError> {
+    pub fn new(
+        params: Parameters,
+        config: HubConfig,
+        demand: Demand,
+    ) -> Result<Self, ParameterError> {
         Self::build(vec![(params, config.n_modules)], config, demand)
     }
 
     /// A hub whose module k has parameter set `sets[k]` (one group per module).
-    pub fn with_parameter_sets(sets: Vec<Parameters>, config: HubConfig, demand: Demand) -> Result<Self, ParameterError> {
+    pub fn with_parameter_sets(
+        sets: Vec<Parameters>,
+        config: HubConfig,
+        demand: Demand,
+    ) -> Result<Self, ParameterError> {
         if sets.len() != config.n_modules as usize {
             return Err(ParameterError {
                 name: "nModules",
@@ -172,33 +182,51 @@ impl Hub {
 
     /// A hub whose modules have the parameter sets `sets`, `(set, count)` each; the counts
     /// must add up to nModules.
-    pub fn with_parameter_counts(sets: Vec<(Parameters, u32)>, config: HubConfig, demand: Demand) -> Result<Self, ParameterError> {
+    pub fn with_parameter_counts(
+        sets: Vec<(Parameters, u32)>,
+        config: HubConfig,
+        demand: Demand,
+    ) -> Result<Self, ParameterError> {
         let total: u64 = sets.iter().map(|(_, c)| *c as u64).sum();
         if total != config.n_modules as u64 || sets.iter().any(|(_, c)| *c == 0) {
             return Err(ParameterError {
                 name: "nModules",
                 value: config.n_modules as f64,
-                requirement: format!("must equal the modules of the parameter sets, {total}, none empty"),
+                requirement: format!(
+                    "must equal the modules of the parameter sets, {total}, none empty"
+                ),
             });
         }
         Self::build(sets, config, demand)
     }
 
-    fn build(sets: Vec<(Parameters, u32)>, config: HubConfig, demand: Demand) -> Result<Self, ParameterError> {
+    fn build(
+        sets: Vec<(Parameters, u32)>,
+        config: HubConfig,
+        demand: Demand,
+    ) -> Result<Self, ParameterError> {
         validate(&config)?;
         let mut types = Vec::with_capacity(sets.len());
         let mut max_power = 0.0;
         for (params, count) in sets {
             params.validate()?;
-            if matches!(demand, Demand::Power(_)) && params.voltage_intercept == 0.0 && params.ohmic_resistance == 0.0 {
+            if matches!(demand, Demand::Power(_))
+                && params.voltage_intercept == 0.0
+                && params.ohmic_resistance == 0.0
+            {
                 return Err(ParameterError {
                     name: "voltageIntercept",
                     value: 0.0,
-                    requirement: "and ohmicResistance = 0 draw no power: a power reference cannot be met".into(),
+                    requirement:
+                        "and ohmicResistance = 0 draw no power: a power reference cannot be met"
+                            .into(),
                 });
             }
             let op = &config.operation;
-            max_power += count as f64 * power_at_setpoint(&params, params.max_setpoint).max(op.start_power).max(op.standby_power);
+            max_power += count as f64
+                * power_at_setpoint(&params, params.max_setpoint)
+                    .max(op.start_power)
+                    .max(op.standby_power);
             types.push(ModuleType {
                 count,
                 dynamics: CurrentDynamics::new(&params).with_compensation(config.compensation),
@@ -208,13 +236,24 @@ impl Hub {
             });
         }
         if !demand.value().is_finite() {
-            return Err(ParameterError { name: "setpoint", value: demand.value(), requirement: "must be a finite number".into() });
+            return Err(ParameterError {
+                name: "setpoint",
+                value: demand.value(),
+                requirement: "must be a finite number".into(),
+            });
         }
         let stays = config.operation.below_minimum == BelowMinimum::Minimum;
         let power_range = types.iter().fold((0.0, 0.0), |(lo, hi), ty| {
             let n = ty.count as f64;
-            let min = if stays { n * power_at_setpoint(&ty.params, ty.params.min_setpoint) } else { 0.0 };
-            (lo + min, hi + n * power_at_setpoint(&ty.params, ty.params.max_setpoint))
+            let min = if stays {
+                n * power_at_setpoint(&ty.params, ty.params.min_setpoint)
+            } else {
+                0.0
+            };
+            (
+                lo + min,
+                hi + n * power_at_setpoint(&ty.params, ty.params.max_setpoint),
+            )
         });
         let mut hub = Hub {
             config,
@@ -244,11 +283,25 @@ impl Hub {
             let ty = &hub.types[kind];
             if on > 0 {
                 let unit = UnitState::steady(&ty.params, &ty.dynamics, u);
-                hub.groups.push(Group { count: on, kind: kind as u32, active: true, unit, running: 0.0, starts: 0 });
+                hub.groups.push(Group {
+                    count: on,
+                    kind: kind as u32,
+                    active: true,
+                    unit,
+                    running: 0.0,
+                    starts: 0,
+                });
             }
             if per_type_count > on {
                 let unit = UnitState::idle();
-                hub.groups.push(Group { count: per_type_count - on, kind: kind as u32, active: false, unit, running: 0.0, starts: 0 });
+                hub.groups.push(Group {
+                    count: per_type_count - on,
+                    kind: kind as u32,
+                    active: false,
+                    unit,
+                    running: 0.0,
+                    starts: 0,
+                });
             }
         }
         hub.aligned = hub.is_aligned();
@@ -259,10 +312,18 @@ impl Hub {
     fn limits(&self, demand: Demand) -> Limits {
         let p = &self.types[0].params;
         match demand {
-            Demand::Setpoint(_) => Limits { min: p.min_setpoint, max: p.max_setpoint, band: self.config.hysteresis },
+            Demand::Setpoint(_) => Limits {
+                min: p.min_setpoint,
+                max: p.max_setpoint,
+                band: self.config.hysteresis,
+            },
             Demand::Power(_) => {
                 let max = power_at_setpoint(p, p.max_setpoint);
-                Limits { min: power_at_setpoint(p, p.min_setpoint), max, band: self.config.hysteresis / 100.0 * max }
+                Limits {
+                    min: power_at_setpoint(p, p.min_setpoint),
+                    max,
+                    band: self.config.hysteresis / 100.0 * max,
+                }
             }
         }
     }
@@ -274,7 +335,14 @@ impl Hub {
             Demand::Power(p) => p,
         };
         let always_on = self.config.operation.below_minimum == BelowMinimum::Minimum;
-        running_count(self.config.policy, n, total, self.limits(demand), self.running_target, always_on)
+        running_count(
+            self.config.policy,
+            n,
+            total,
+            self.limits(demand),
+            self.running_target,
+            always_on,
+        )
     }
 
     /// Setpoint [%] of a running module of parameter set `kind` when `running` modules share
@@ -299,7 +367,10 @@ impl Hub {
             return Err(StepError::InvalidStepSize(h));
         }
         let bound = self.totals.energy + h * self.max_power;
-        if !(bound.is_finite() && (self.totals.time + h).is_finite() && (self.totals.running + h * self.config.n_modules as f64).is_finite()) {
+        if !(bound.is_finite()
+            && (self.totals.time + h).is_finite()
+            && (self.totals.running + h * self.config.n_modules as f64).is_finite())
+        {
             return Err(StepError::Overflow(h));
         }
         let n = self.target_count(demand);
@@ -320,7 +391,8 @@ impl Hub {
         while left > 0.0 {
             let survey = self.surveyed.take().unwrap_or_else(|| self.survey());
             let piece = survey.next_event.filter(|t| *t < left).unwrap_or(left);
-            self.surveyed = Some(self.advance_groups(demand, n, &survey, piece, piece == h, &mut totals));
+            self.surveyed =
+                Some(self.advance_groups(demand, n, &survey, piece, piece == h, &mut totals));
             left -= piece;
         }
         totals.time += h;
@@ -361,7 +433,12 @@ impl Hub {
     /// Group i holds the modules of parameter set i, for every i (always so with a parameter
     /// set per module): groups and sets can then be split alike.
     fn is_aligned(&self) -> bool {
-        self.groups.len() == self.types.len() && self.groups.iter().enumerate().all(|(i, g)| g.kind as usize == i)
+        self.groups.len() == self.types.len()
+            && self
+                .groups
+                .iter()
+                .enumerate()
+                .all(|(i, g)| g.kind as usize == i)
     }
 
     /// Applies the transitions a new dispatch causes at once (a start from Idle or Standby, a
@@ -370,10 +447,18 @@ impl Hub {
         let op = self.config.operation;
         for g in self.groups.iter_mut() {
             let ty = &mut self.types[g.kind as usize];
-            let command = if g.active { Command::Run(ty.params.min_setpoint) } else { Command::Stop };
-            let t = g.unit.advance(&ty.params, &ty.dynamics, &mut ty.factors, &op, command, 0.0);
+            let command = if g.active {
+                Command::Run(ty.params.min_setpoint)
+            } else {
+                Command::Stop
+            };
+            let t = g
+                .unit
+                .advance(&ty.params, &ty.dynamics, &mut ty.factors, &op, command, 0.0);
             // Counters saturate: a restored state may carry any count (found by fuzzing).
-            totals.starts = totals.starts.saturating_add(g.count as u64 * t.starts as u64);
+            totals.starts = totals
+                .starts
+                .saturating_add(g.count as u64 * t.starts as u64);
             if self.config.policy == DispatchPolicy::Rotation {
                 g.starts = g.starts.saturating_add(t.starts as u64);
             }
@@ -386,8 +471,20 @@ impl Hub {
     ///
     /// Groups go in chunks of [`CHUNK`], each summing its own totals ([`tally`]), added in
     /// order: the same sums whichever path steps a group. Returns the survey of the groups after it.
-    fn advance_groups(&mut self, demand: Demand, n: u32, survey: &Survey, piece: f64, whole: bool, totals: &mut HubTotals) -> Survey {
-        let sharing = if survey.carrying > 0 { survey.carrying } else { n.max(1) };
+    fn advance_groups(
+        &mut self,
+        demand: Demand,
+        n: u32,
+        survey: &Survey,
+        piece: f64,
+        whole: bool,
+        totals: &mut HubTotals,
+    ) -> Survey {
+        let sharing = if survey.carrying > 0 {
+            survey.carrying
+        } else {
+            n.max(1)
+        };
         let demand = match demand {
             Demand::Power(p) => Demand::Power((p - survey.others).max(0.0)),
             setpoint => setpoint,
@@ -398,23 +495,52 @@ impl Hub {
         };
         let common = match share {
             Share::Setpoint(u) => Some(u),
-            Share::Power(_) if self.types.len() == 1 => Some(self.module_setpoint(0, demand, sharing)),
+            Share::Power(_) if self.types.len() == 1 => {
+                Some(self.module_setpoint(0, demand, sharing))
+            }
             Share::Power(_) => None,
         };
         let rotation = self.config.policy == DispatchPolicy::Rotation;
-        let step = Stepper { share, common, piece, rotation, op: self.config.operation };
-        let use_lanes = self.lanes_enabled && whole && self.aligned && self.types.len() >= LANES_FROM;
+        let step = Stepper {
+            share,
+            common,
+            piece,
+            rotation,
+            op: self.config.operation,
+        };
+        let use_lanes =
+            self.lanes_enabled && whole && self.aligned && self.types.len() >= LANES_FROM;
         if use_lanes && self.lanes.as_ref().is_none_or(|bank| bank.h() != piece) {
-            self.lanes = Some(LaneBank::new(self.types.iter().map(|t| (&t.params, &t.dynamics)), piece));
+            self.lanes = Some(LaneBank::new(
+                self.types.iter().map(|t| (&t.params, &t.dynamics)),
+                piece,
+            ));
         }
-        let Hub { groups, types, lanes, partials, .. } = self;
+        let Hub {
+            groups,
+            types,
+            lanes,
+            partials,
+            ..
+        } = self;
         if let Some(bank) = lanes.as_ref().filter(|_| use_lanes) {
             // Aligned: chunk c of the groups is stepped with chunk c of the parameter sets.
-            let chunk_step = |c: usize, gs: &mut [Group], ts: &mut [ModuleType], part: &mut Part| {
-                let mut tally = Tally::default();
-                bank.step(c * CHUNK, gs, share, &mut ChunkVisitor { step: &step, types: ts, next: 0, tally: &mut tally });
-                *part = tally.fold();
-            };
+            let chunk_step =
+                |c: usize, gs: &mut [Group], ts: &mut [ModuleType], part: &mut Part| {
+                    let mut tally = Tally::default();
+                    bank.step(
+                        c * CHUNK,
+                        gs,
+                        share,
+                        &mut ChunkVisitor {
+                            step: &step,
+                            types: ts,
+                            next: 0,
+                            tally: &mut tally,
+                        },
+                    );
+                    *part = tally.fold();
+                };
             partials.resize(groups.len().div_ceil(CHUNK), Part::default());
             if groups.len() >= PARALLEL_FROM && rayon::current_num_threads() > 1 {
                 use rayon::prelude::*;
@@ -426,7 +552,10 @@ impl Hub {
                     .enumerate()
                     .for_each(|(c, ((gs, ts), part))| chunk_step(c, gs, ts, part));
             } else {
-                let chunks = groups.chunks_mut(CHUNK).zip(types.chunks_mut(CHUNK)).zip(partials.iter_mut());
+                let chunks = groups
+                    .chunks_mut(CHUNK)
+                    .zip(types.chunks_mut(CHUNK))
+                    .zip(partials.iter_mut());
                 for (c, ((gs, ts), part)) in chunks.enumerate() {
                     chunk_step(c, gs, ts, part);
                 }
@@ -465,12 +594,20 @@ impl Hub {
             return false;
         }
         let starting = target > active;
-        let mut need = if starting { target - active } else { active - target };
+        let mut need = if starting {
+            target - active
+        } else {
+            active - target
+        };
         let rotation = self.config.policy == DispatchPolicy::Rotation;
         self.order.clear();
-        self.order.extend((0..self.groups.len() as u32).filter(|&i| self.groups[i as usize].active != starting));
+        self.order.extend(
+            (0..self.groups.len() as u32).filter(|&i| self.groups[i as usize].active != starting),
+        );
         let groups = &self.groups;
-        self.order.sort_unstable_by(|&a, &b| preference(&groups[a as usize], &groups[b as usize], starting, rotation));
+        self.order.sort_unstable_by(|&a, &b| {
+            preference(&groups[a as usize], &groups[b as usize], starting, rotation)
+        });
         for k in 0..self.order.len() {
             if need == 0 {
                 break;
@@ -482,7 +619,11 @@ impl Hub {
                 need -= g.count;
             } else {
                 self.groups[gi].count = g.count - need;
-                self.groups.push(Group { count: need, active: starting, ..g });
+                self.groups.push(Group {
+                    count: need,
+                    active: starting,
+                    ..g
+                });
                 need = 0;
             }
         }
@@ -540,12 +681,22 @@ impl Hub {
     /// Electric power of the hub [W]: stack power of Steady modules plus start and standby power.
     pub fn power(&self) -> f64 {
         let op = &self.config.operation;
-        self.groups.iter().map(|g| g.count as f64 * g.unit.power(&self.types[g.kind as usize].params, op)).sum()
+        self.groups
+            .iter()
+            .map(|g| g.count as f64 * g.unit.power(&self.types[g.kind as usize].params, op))
+            .sum()
     }
 
     /// Hydrogen flow of the hub, c·ΣI [Nl/h].
     pub fn h2_flow(&self) -> f64 {
-        self.groups.iter().map(|g| g.count as f64 * self.types[g.kind as usize].params.h2_coefficient * g.unit.stack_current()).sum()
+        self.groups
+            .iter()
+            .map(|g| {
+                g.count as f64
+                    * self.types[g.kind as usize].params.h2_coefficient
+                    * g.unit.stack_current()
+            })
+            .sum()
     }
 
     /// Hydrogen flow of the hub [kg/h] (normal density 0.0899 kg/Nm³).
@@ -555,14 +706,21 @@ impl Hub {
 
     /// Number of modules in `state`.
     pub fn count_in(&self, state: OperatingState) -> u32 {
-        self.groups.iter().filter(|g| g.unit.state == state).map(|g| g.count).sum()
+        self.groups
+            .iter()
+            .filter(|g| g.unit.state == state)
+            .map(|g| g.count)
+            .sum()
     }
 
     /// The hub's dominant state: Steady if any module is Steady, else Curve, Standby,
     /// Blowdown, Idle in that order (for one module: its state).
     pub fn state(&self) -> OperatingState {
         use OperatingState::*;
-        [Steady, Curve, Standby, Blowdown].into_iter().find(|&s| self.count_in(s) > 0).unwrap_or(Idle)
+        [Steady, Curve, Standby, Blowdown]
+            .into_iter()
+            .find(|&s| self.count_in(s) > 0)
+            .unwrap_or(Idle)
     }
 
     /// Modules dispatched to run.
@@ -601,7 +759,11 @@ pub struct HubReadings {
 impl Hub {
     /// The time-varying state.
     pub fn snapshot(&self) -> HubSnapshot {
-        HubSnapshot { groups: self.groups.clone(), running_target: self.running_target, totals: self.totals }
+        HubSnapshot {
+            groups: self.groups.clone(),
+            running_target: self.running_target,
+            totals: self.totals,
+        }
     }
 
     /// Restores a snapshot taken from a hub of the same configuration and parameter sets.
@@ -613,23 +775,50 @@ impl Hub {
             let u = &g.unit;
             let c = &u.current;
             if g.count == 0 || g.kind as usize >= kinds {
-                return Err(format!("a group has count {} and parameter set {} of {kinds}", g.count, g.kind));
+                return Err(format!(
+                    "a group has count {} and parameter set {} of {kinds}",
+                    g.count, g.kind
+                ));
             }
-            if ![u.timer, c.current, c.z1, c.z2, g.running].iter().all(|x| x.is_finite()) || u.timer < 0.0 || g.running < 0.0 {
+            if ![u.timer, c.current, c.z1, c.z2, g.running]
+                .iter()
+                .all(|x| x.is_finite())
+                || u.timer < 0.0
+                || g.running < 0.0
+            {
                 return Err("a group holds a non-finite or negative value".into());
             }
             per_kind[g.kind as usize] += g.count as u64;
         }
-        if per_kind.iter().zip(&self.types).any(|(&n, ty)| n != ty.count as u64) {
-            return Err(format!("the groups do not hold exactly the hub's {} modules", self.config.n_modules));
+        if per_kind
+            .iter()
+            .zip(&self.types)
+            .any(|(&n, ty)| n != ty.count as u64)
+        {
+            return Err(format!(
+                "the groups do not hold exactly the hub's {} modules",
+                self.config.n_modules
+            ));
         }
         let t = &snapshot.totals;
-        if ![t.time, t.energy, t.h2_produced, t.running].iter().all(|x| x.is_finite()) || snapshot.running_target > self.config.n_modules {
+        if ![t.time, t.energy, t.h2_produced, t.running]
+            .iter()
+            .all(|x| x.is_finite())
+            || snapshot.running_target > self.config.n_modules
+        {
             return Err("the hub's totals or dispatch target are out of range".into());
         }
-        let active: u64 = snapshot.groups.iter().filter(|g| g.active).map(|g| g.count as u64).sum();
+        let active: u64 = snapshot
+            .groups
+            .iter()
+            .filter(|g| g.active)
+            .map(|g| g.count as u64)
+            .sum();
         if active != snapshot.running_target as u64 {
-            return Err(format!("{active} modules are dispatched but the dispatch target is {}", snapshot.running_target));
+            return Err(format!(
+                "{active} modules are dispatched but the dispatch target is {}",
+                snapshot.running_target
+            ));
         }
         self.groups = snapshot.groups;
         self.running_target = snapshot.running_target;
@@ -650,12 +839,22 @@ impl Hub {
 pub fn validate(config: &HubConfig) -> Result<(), ParameterError> {
     config.operation.validate()?;
     if config.n_modules == 0 {
-        return Err(ParameterError { name: "nModules", value: 0.0, requirement: "must be >= 1".into() });
+        return Err(ParameterError {
+            name: "nModules",
+            value: 0.0,
+            requirement: "must be >= 1".into(),
+        });
     }
     if !(config.hysteresis.is_finite() && config.hysteresis >= 0.0) {
-        return Err(ParameterError { name: "hysteresis", value: config.hysteresis, requirement: "must be a finite number >= 0".into() });
+        return Err(ParameterError {
+            name: "hysteresis",
+            value: config.hysteresis,
+            requirement: "must be a finite number >= 0".into(),
+        });
     }
-    if config.policy != DispatchPolicy::Equal && config.operation.below_minimum == BelowMinimum::Minimum {
+    if config.policy != DispatchPolicy::Equal
+        && config.operation.below_minimum == BelowMinimum::Minimum
+    {
         return Err(ParameterError {
             name: "belowMinimum",
             value: 0.0,
@@ -683,7 +882,10 @@ fn state_rank(s: OperatingState, starting: bool) -> u8 {
 fn preference(a: &Group, b: &Group, starting: bool, rotation: bool) -> Ordering {
     let mut o = Ordering::Equal;
     if rotation {
-        o = a.running.total_cmp(&b.running).then(a.starts.cmp(&b.starts));
+        o = a
+            .running
+            .total_cmp(&b.running)
+            .then(a.starts.cmp(&b.starts));
         if !starting {
             o = o.reverse();
         }

@@ -60,7 +60,11 @@ impl Outcomes {
     /// The tracking step of lane k.
     pub fn step(&self, k: usize) -> TrackedStep {
         TrackedStep {
-            state: CurrentState { z1: self.z1[k], z2: self.z2[k], current: self.current[k] },
+            state: CurrentState {
+                z1: self.z1[k],
+                z2: self.z2[k],
+                current: self.current[k],
+            },
             charge: self.charge[k],
             current_squared: self.current_squared[k],
             tracks: self.tracks[k],
@@ -116,7 +120,10 @@ pub struct LaneBank {
 
 impl LaneBank {
     /// The constants of `sets` (parameters with their dynamics) for steps of `h` seconds.
-    pub fn new<'a>(sets: impl ExactSizeIterator<Item = (&'a Parameters, &'a CurrentDynamics)>, h: f64) -> Self {
+    pub fn new<'a>(
+        sets: impl ExactSizeIterator<Item = (&'a Parameters, &'a CurrentDynamics)>,
+        h: f64,
+    ) -> Self {
         let n = sets.len();
         let mut blocks = vec![LaneBlock::default(); n.div_ceil(LANES)];
         for (i, (p, d)) in sets.enumerate() {
@@ -162,7 +169,13 @@ impl LaneBank {
     /// The tracking steps of `items`, item k being a module of parameter set `first + k`
     /// (`first` a multiple of four, `first + items.len()` at most [`Self::sets`]) at the state
     /// `V::state(item)`, under `share`, handed to `visitor.visit` four at a time, in order.
-    pub fn step<T, V: Visit<T>>(&self, first: usize, items: &mut [T], share: Share, visitor: &mut V) {
+    pub fn step<T, V: Visit<T>>(
+        &self,
+        first: usize,
+        items: &mut [T],
+        share: Share,
+        visitor: &mut V,
+    ) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2 (checked just above), the only requirement of `step_avx2`.
@@ -175,18 +188,39 @@ impl LaneBank {
     /// [`Self::step`] compiled for AVX2 (the visitor inlined into it).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn step_avx2<T, V: Visit<T>>(&self, first: usize, items: &mut [T], share: Share, visitor: &mut V) {
+    unsafe fn step_avx2<T, V: Visit<T>>(
+        &self,
+        first: usize,
+        items: &mut [T],
+        share: Share,
+        visitor: &mut V,
+    ) {
         self.step_lanes(first, items, share, visitor);
     }
 
     /// [`Self::step`] for any CPU of the target.
-    pub fn step_portable<T, V: Visit<T>>(&self, first: usize, items: &mut [T], share: Share, visitor: &mut V) {
+    pub fn step_portable<T, V: Visit<T>>(
+        &self,
+        first: usize,
+        items: &mut [T],
+        share: Share,
+        visitor: &mut V,
+    ) {
         self.step_lanes(first, items, share, visitor);
     }
 
     #[inline(always)]
-    fn step_lanes<T, V: Visit<T>>(&self, first: usize, items: &mut [T], share: Share, visitor: &mut V) {
-        assert!(first.is_multiple_of(LANES) && first + items.len() <= self.sets, "lanes out of range");
+    fn step_lanes<T, V: Visit<T>>(
+        &self,
+        first: usize,
+        items: &mut [T],
+        share: Share,
+        visitor: &mut V,
+    ) {
+        assert!(
+            first.is_multiple_of(LANES) && first + items.len() <= self.sets,
+            "lanes out of range"
+        );
         let blocks = &self.blocks[first / LANES..];
         // Setpoints first, a batch of blocks at a time: the square roots and divisions of
         // neighbouring blocks then overlap instead of each waiting for the last.
@@ -210,10 +244,16 @@ impl LaneBank {
     #[inline(always)]
     fn setpoints(blk: &LaneBlock, share: Share) -> Lane {
         match share {
-            Share::Setpoint(fixed) => std::array::from_fn(|k| clamped(fixed, blk.min[k], blk.max[k])),
-            Share::Power(p) => {
-                std::array::from_fn(|k| clamped(setpoint_at_power(blk.v0[k], blk.r[k], blk.gain[k], p), blk.min[k], blk.max[k]))
+            Share::Setpoint(fixed) => {
+                std::array::from_fn(|k| clamped(fixed, blk.min[k], blk.max[k]))
             }
+            Share::Power(p) => std::array::from_fn(|k| {
+                clamped(
+                    setpoint_at_power(blk.v0[k], blk.r[k], blk.gain[k], p),
+                    blk.min[k],
+                    blk.max[k],
+                )
+            }),
         }
     }
 
@@ -222,9 +262,11 @@ impl LaneBank {
     #[inline(always)]
     fn block(&self, blk: &LaneBlock, setpoints: &Lane, [z1, z2, current]: [Lane; 3]) -> Outcomes {
         let mut next = [[0.0; LANES]; 3];
-        let (mut charge, mut squared, mut energy, mut hydrogen) = ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        let (mut charge, mut squared, mut energy, mut hydrogen) =
+            ([0.0; LANES], [0.0; LANES], [0.0; LANES], [0.0; LANES]);
         let mut tracks = [false; LANES];
-        let (mut power_end, mut flow_end, mut voltage_end) = ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
+        let (mut power_end, mut flow_end, mut voltage_end) =
+            ([0.0; LANES], [0.0; LANES], [0.0; LANES]);
         for k in 0..LANES {
             let t = TrackingStep {
                 gain: blk.gain[k],
@@ -242,7 +284,11 @@ impl LaneBank {
                 ramp: blk.ramp[k],
                 h: self.h,
             };
-            let state = CurrentState { z1: z1[k], z2: z2[k], current: current[k] };
+            let state = CurrentState {
+                z1: z1[k],
+                z2: z2[k],
+                current: current[k],
+            };
             let step = t.step(&state, setpoints[k]);
             next[0][k] = step.state.z1;
             next[1][k] = step.state.z2;
@@ -289,7 +335,10 @@ mod tests {
             .enumerate()
             .map(|(i, d)| {
                 let s = d.steady_state(60.0 + 4.0 * (i % 11) as f64);
-                CurrentState { z1: s.z1 * (1.0 + 0.01 * (i % 11) as f64), ..s }
+                CurrentState {
+                    z1: s.z1 * (1.0 + 0.01 * (i % 11) as f64),
+                    ..s
+                }
             })
             .collect();
         (sets, dynamics, states)
@@ -316,13 +365,32 @@ mod tests {
         fn visit(&mut self, items: &mut [CurrentState], o: &Outcomes) {
             assert!(self.0.len().is_multiple_of(LANES) && (1..=LANES).contains(&items.len()));
             for k in 0..items.len() {
-                let (energy, hydrogen, power, h2_flow, voltage) = (o.energy[k], o.hydrogen[k], o.power[k], o.h2_flow[k], o.voltage[k]);
-                self.0.push(One { step: o.step(k), energy, hydrogen, power, h2_flow, voltage });
+                let (energy, hydrogen, power, h2_flow, voltage) = (
+                    o.energy[k],
+                    o.hydrogen[k],
+                    o.power[k],
+                    o.h2_flow[k],
+                    o.voltage[k],
+                );
+                self.0.push(One {
+                    step: o.step(k),
+                    energy,
+                    hydrogen,
+                    power,
+                    h2_flow,
+                    voltage,
+                });
             }
         }
     }
 
-    fn outcomes(bank: &LaneBank, first: usize, states: &[CurrentState], share: Share, portable: bool) -> Vec<One> {
+    fn outcomes(
+        bank: &LaneBank,
+        first: usize,
+        states: &[CurrentState],
+        share: Share,
+        portable: bool,
+    ) -> Vec<One> {
         let mut out = Collect(Vec::new());
         let mut items = states.to_vec();
         if portable {
@@ -330,7 +398,10 @@ mod tests {
         } else {
             bank.step(first, &mut items, share, &mut out);
         }
-        assert_eq!(items, states, "a visitor that changes nothing changed the items");
+        assert_eq!(
+            items, states,
+            "a visitor that changes nothing changed the items"
+        );
         out.0
     }
 
@@ -338,7 +409,12 @@ mod tests {
     fn lanes_equal_the_scalar_path_bit_for_bit() {
         let (sets, dynamics, states) = rig();
         let bank = LaneBank::new(sets.iter().zip(&dynamics), 0.7);
-        for share in [Share::Setpoint(83.3), Share::Power(1900.0), Share::Power(0.0), Share::Power(1e9)] {
+        for share in [
+            Share::Setpoint(83.3),
+            Share::Power(1900.0),
+            Share::Power(0.0),
+            Share::Power(1e9),
+        ] {
             let got = outcomes(&bank, 0, &states, share, false);
             assert_eq!(got.len(), states.len());
             for (i, o) in got.iter().enumerate() {
@@ -349,14 +425,31 @@ mod tests {
                 };
                 let want = d.tracking_step(0.7).step(&states[i], p.clamp_setpoint(u));
                 assert_eq!(o.step, want, "set {i} under {share:?}");
-                assert_eq!(o.energy.to_bits(), (p.voltage_intercept * want.charge + p.ohmic_resistance * want.current_squared).to_bits());
-                assert_eq!(o.hydrogen.to_bits(), (p.h2_coefficient / 3600.0 * want.charge).to_bits());
+                assert_eq!(
+                    o.energy.to_bits(),
+                    (p.voltage_intercept * want.charge + p.ohmic_resistance * want.current_squared)
+                        .to_bits()
+                );
+                assert_eq!(
+                    o.hydrogen.to_bits(),
+                    (p.h2_coefficient / 3600.0 * want.charge).to_bits()
+                );
                 let i = want.state.current;
-                assert_eq!(o.voltage.to_bits(), (p.voltage_intercept + p.ohmic_resistance * i).to_bits());
-                assert_eq!(o.power.to_bits(), ((p.voltage_intercept + p.ohmic_resistance * i) * i).to_bits());
+                assert_eq!(
+                    o.voltage.to_bits(),
+                    (p.voltage_intercept + p.ohmic_resistance * i).to_bits()
+                );
+                assert_eq!(
+                    o.power.to_bits(),
+                    ((p.voltage_intercept + p.ohmic_resistance * i) * i).to_bits()
+                );
                 assert_eq!(o.h2_flow.to_bits(), (p.h2_coefficient * i).to_bits());
             }
-            assert_eq!(outcomes(&bank, 0, &states, share, true), got, "the CPU-specific copy differs under {share:?}");
+            assert_eq!(
+                outcomes(&bank, 0, &states, share, true),
+                got,
+                "the CPU-specific copy differs under {share:?}"
+            );
             // A later chunk of the sets gives the same outcomes for them.
             assert_eq!(outcomes(&bank, 4, &states[4..], share, false), got[4..]);
         }
@@ -368,11 +461,24 @@ mod tests {
         let p = Parameters::default();
         let d = CurrentDynamics::new(&p);
         let bank = LaneBank::new(std::iter::once((&p, &d)), 2.0);
-        let o = outcomes(&bank, 0, &[d.steady_state(90.0)], Share::Setpoint(70.0), false);
+        let o = outcomes(
+            &bank,
+            0,
+            &[d.steady_state(90.0)],
+            Share::Setpoint(70.0),
+            false,
+        );
         assert!(o[0].step.tracks);
         let a = (p.tau_zero - p.tau_pole1) / (p.tau_pole2 - p.tau_pole1);
-        let want = p.gain * 70.0 + p.gain * 20.0 * (a * (-2.0 / p.tau_pole1).exp() + (1.0 - a) * (-2.0 / p.tau_pole2).exp());
-        assert!((o[0].step.state.current - want).abs() < 1e-12, "{} vs {want}", o[0].step.state.current);
+        let want = p.gain * 70.0
+            + p.gain
+                * 20.0
+                * (a * (-2.0 / p.tau_pole1).exp() + (1.0 - a) * (-2.0 / p.tau_pole2).exp());
+        assert!(
+            (o[0].step.state.current - want).abs() < 1e-12,
+            "{} vs {want}",
+            o[0].step.state.current
+        );
     }
 
     #[test]
@@ -381,7 +487,13 @@ mod tests {
         let p = Parameters::default();
         let d = CurrentDynamics::new(&p);
         let bank = LaneBank::new(std::iter::once((&p, &d)), 1.0);
-        let o = outcomes(&bank, 0, &[d.steady_state(60.0)], Share::Setpoint(100.0), false);
+        let o = outcomes(
+            &bank,
+            0,
+            &[d.steady_state(60.0)],
+            Share::Setpoint(100.0),
+            false,
+        );
         assert!(!o[0].step.tracks);
     }
 }

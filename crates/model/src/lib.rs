@@ -30,16 +30,16 @@ pub mod parameter_file;
 pub mod parameters;
 pub mod plant;
 pub mod reserve;
-pub mod spread;
 mod roots;
 mod select;
+pub mod spread;
 
-pub use dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
-pub use module::{Module, ModuleState, StepError};
-pub use parameters::{ModuleParameter, ParameterError, Parameters};
 pub use dispatch::{Demand, DispatchPolicy};
+pub use dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
 pub use hub::{Hub, HubConfig};
+pub use module::{Module, ModuleState, StepError};
 pub use operation::{BelowMinimum, OperatingState, OperationParameters};
+pub use parameters::{ModuleParameter, ParameterError, Parameters};
 pub use plant::{Plant, PlantConfig, PlantSettings, PlantSnapshot, ReserveStep};
 pub use reserve::{FastReserve, FrequencyResponse, ReserveSettings};
 

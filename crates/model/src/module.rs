@@ -98,7 +98,12 @@ impl Module {
         Ok(Module {
             params,
             dynamics,
-            state: ModuleState { time: 0.0, current, energy: 0.0, h2_produced: 0.0 },
+            state: ModuleState {
+                time: 0.0,
+                current,
+                energy: 0.0,
+                h2_produced: 0.0,
+            },
             factors: StepFactors::default(),
             h2_per_coulomb: params.h2_coefficient / SECONDS_PER_HOUR,
         })
@@ -117,14 +122,22 @@ impl Module {
         let mut current = self.state.current;
         let ints = self.dynamics.advance(&mut current, u, h, &mut self.factors);
         self.commit(current, ints, h)?;
-        Ok(StepReport { applied_setpoint: u, ramp_time: ints.ramp_time })
+        Ok(StepReport {
+            applied_setpoint: u,
+            ramp_time: ints.ramp_time,
+        })
     }
 
     /// Advances by `h` seconds with a setpoint that changes linearly from `setpoint` [%] at
     /// `slope` [%/s] over the step (an interpolated input). Where the line leaves the
     /// operating window the step is split at the crossing and the clamped part held constant,
     /// so the result is exact.
-    pub fn step_interpolated(&mut self, setpoint: f64, slope: f64, h: f64) -> Result<StepReport, StepError> {
+    pub fn step_interpolated(
+        &mut self,
+        setpoint: f64,
+        slope: f64,
+        h: f64,
+    ) -> Result<StepReport, StepError> {
         if slope == 0.0 {
             return self.step(setpoint, h);
         }
@@ -160,30 +173,60 @@ impl Module {
             let middle = setpoint + slope * 0.5 * (t0 + t1);
             let ints = if middle > lo && middle < hi {
                 let u0 = self.params.clamp_setpoint(setpoint + slope * t0);
-                self.dynamics.advance_linear(&mut current, u0, slope, t1 - t0)
+                self.dynamics
+                    .advance_linear(&mut current, u0, slope, t1 - t0)
             } else {
-                self.dynamics.advance(&mut current, self.params.clamp_setpoint(middle), t1 - t0, &mut self.factors)
+                self.dynamics.advance(
+                    &mut current,
+                    self.params.clamp_setpoint(middle),
+                    t1 - t0,
+                    &mut self.factors,
+                )
             };
             charge += ints.charge;
             current_squared += ints.current_squared;
             ramp_time += ints.ramp_time;
         }
-        self.commit(current, CurrentIntegrals { charge, current_squared, ramp_time }, h)?;
-        Ok(StepReport { applied_setpoint: self.params.clamp_setpoint(setpoint + slope * h), ramp_time })
+        self.commit(
+            current,
+            CurrentIntegrals {
+                charge,
+                current_squared,
+                ramp_time,
+            },
+            h,
+        )?;
+        Ok(StepReport {
+            applied_setpoint: self.params.clamp_setpoint(setpoint + slope * h),
+            ramp_time,
+        })
     }
 
     /// Adds a step's integrals to the totals and takes its end state, unless a total would
     /// overflow (then nothing changes).
-    fn commit(&mut self, current: CurrentState, ints: CurrentIntegrals, h: f64) -> Result<(), StepError> {
+    fn commit(
+        &mut self,
+        current: CurrentState,
+        ints: CurrentIntegrals,
+        h: f64,
+    ) -> Result<(), StepError> {
         let p = &self.params;
-        let energy = self.state.energy + p.voltage_intercept * ints.charge + p.ohmic_resistance * ints.current_squared;
+        let energy = self.state.energy
+            + p.voltage_intercept * ints.charge
+            + p.ohmic_resistance * ints.current_squared;
         let h2_produced = self.state.h2_produced + self.h2_per_coulomb * ints.charge;
         let time = self.state.time + h;
-        let states_finite = current.current.is_finite() && current.z1.is_finite() && current.z2.is_finite();
+        let states_finite =
+            current.current.is_finite() && current.z1.is_finite() && current.z2.is_finite();
         if !(energy.is_finite() && h2_produced.is_finite() && time.is_finite() && states_finite) {
             return Err(StepError::Overflow(h));
         }
-        self.state = ModuleState { time, current, energy, h2_produced };
+        self.state = ModuleState {
+            time,
+            current,
+            energy,
+            h2_produced,
+        };
         Ok(())
     }
 
@@ -287,12 +330,23 @@ mod tests {
     fn interpolated_input_matches_a_fine_step_reference() {
         // (start setpoint, slope [%/s], step [s]): rising beyond the rate limit, falling,
         // leaving the window below and above, and crossing the whole window in one step.
-        for &(u0, slope, h) in &[(70.0, 2.0, 10.0), (95.0, -1.5, 20.0), (70.0, -1.0, 30.0), (90.0, 1.0, 30.0), (50.0, 4.0, 20.0)] {
+        for &(u0, slope, h) in &[
+            (70.0, 2.0, 10.0),
+            (95.0, -1.5, 20.0),
+            (70.0, -1.0, 30.0),
+            (90.0, 1.0, 30.0),
+            (50.0, 4.0, 20.0),
+        ] {
             let mut m = Module::new(Parameters::default(), 75.0).unwrap();
             m.step(65.0, 3.0).unwrap(); // not in steady state
             let reference = fine_reference(&m, u0, slope, h, 1e-4);
             m.step_interpolated(u0, slope, h).unwrap();
-            assert!((m.current() - reference.current()).abs() < 1e-6, "{u0} {slope}: {} vs {}", m.current(), reference.current());
+            assert!(
+                (m.current() - reference.current()).abs() < 1e-6,
+                "{u0} {slope}: {} vs {}",
+                m.current(),
+                reference.current()
+            );
             assert!((m.energy() - reference.energy()).abs() < 1e-7 * reference.energy());
         }
     }
@@ -303,9 +357,15 @@ mod tests {
         let mut many = one.clone();
         one.step_interpolated(62.0, 1.5, 30.0).unwrap();
         for k in 0..300 {
-            many.step_interpolated(62.0 + 1.5 * 0.1 * k as f64, 1.5, 0.1).unwrap();
+            many.step_interpolated(62.0 + 1.5 * 0.1 * k as f64, 1.5, 0.1)
+                .unwrap();
         }
-        assert!((one.current() - many.current()).abs() < 1e-9, "{} vs {}", one.current(), many.current());
+        assert!(
+            (one.current() - many.current()).abs() < 1e-9,
+            "{} vs {}",
+            one.current(),
+            many.current()
+        );
         assert!((one.energy() - many.energy()).abs() < 1e-9 * one.energy());
     }
 
@@ -314,7 +374,10 @@ mod tests {
         let mut m = Module::new(Parameters::default(), 70.0).unwrap();
         m.step(90.0, 3.0).unwrap();
         let before = *m.state();
-        assert!(matches!(m.step(f64::NAN, 1.0), Err(StepError::NonFiniteSetpoint(_))));
+        assert!(matches!(
+            m.step(f64::NAN, 1.0),
+            Err(StepError::NonFiniteSetpoint(_))
+        ));
         assert!(m.step(f64::INFINITY, 1.0).is_err());
         assert!(m.step(80.0, -1.0).is_err());
         assert!(m.step(80.0, 0.0).is_err());

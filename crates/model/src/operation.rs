@@ -47,7 +47,13 @@ pub enum OperatingState {
 
 impl OperatingState {
     /// All states, in code order.
-    pub const ALL: [OperatingState; 5] = [Self::Idle, Self::Curve, Self::Steady, Self::Standby, Self::Blowdown];
+    pub const ALL: [OperatingState; 5] = [
+        Self::Idle,
+        Self::Curve,
+        Self::Steady,
+        Self::Standby,
+        Self::Blowdown,
+    ];
 
     /// The state's Integer code (0…4).
     pub fn code(self) -> i32 {
@@ -128,7 +134,11 @@ impl OperationParameters {
             ("stopDuration", self.stop_duration),
         ] {
             if !(value.is_finite() && value >= 0.0) {
-                return Err(ParameterError { name, value, requirement: "must be a finite number >= 0".into() });
+                return Err(ParameterError {
+                    name,
+                    value,
+                    requirement: "must be a finite number >= 0".into(),
+                });
             }
         }
         if self.warm_start_time > self.cold_start_time {
@@ -175,17 +185,29 @@ pub struct UnitTotals {
     pub starts: u32,
 }
 
-const ZERO_CURRENT: CurrentState = CurrentState { z1: 0.0, z2: 0.0, current: 0.0 };
+const ZERO_CURRENT: CurrentState = CurrentState {
+    z1: 0.0,
+    z2: 0.0,
+    current: 0.0,
+};
 
 impl UnitState {
     /// Idle (cold, off).
     pub fn idle() -> Self {
-        UnitState { state: OperatingState::Idle, timer: 0.0, current: ZERO_CURRENT }
+        UnitState {
+            state: OperatingState::Idle,
+            timer: 0.0,
+            current: ZERO_CURRENT,
+        }
     }
 
     /// Steady in steady state at `setpoint` [%] (clamped).
     pub fn steady(params: &Parameters, dynamics: &CurrentDynamics, setpoint: f64) -> Self {
-        UnitState { state: OperatingState::Steady, timer: 0.0, current: dynamics.steady_state(params.clamp_setpoint(setpoint)) }
+        UnitState {
+            state: OperatingState::Steady,
+            timer: 0.0,
+            current: dynamics.steady_state(params.clamp_setpoint(setpoint)),
+        }
     }
 
     /// Stack current [A].
@@ -236,7 +258,15 @@ impl UnitState {
                 }
                 (Steady, Stop) => match op.below_minimum {
                     BelowMinimum::Minimum => {
-                        self.run(params, dynamics, factors, params.min_setpoint, left, h, &mut totals);
+                        self.run(
+                            params,
+                            dynamics,
+                            factors,
+                            params.min_setpoint,
+                            left,
+                            h,
+                            &mut totals,
+                        );
                         return totals;
                     }
                     BelowMinimum::Standby => *self = timed(Standby, op.standby_duration),
@@ -309,7 +339,8 @@ impl UnitState {
         } else {
             dynamics.advance(&mut self.current, u, length, &mut StepFactors::default())
         };
-        totals.energy += params.voltage_intercept * ints.charge + params.ohmic_resistance * ints.current_squared;
+        totals.energy +=
+            params.voltage_intercept * ints.charge + params.ohmic_resistance * ints.current_squared;
         totals.charge += ints.charge;
         totals.running += length;
     }
@@ -335,7 +366,11 @@ impl UnitState {
 use Command::{Run, Stop};
 
 fn timed(state: OperatingState, duration: f64) -> UnitState {
-    UnitState { state, timer: duration, current: ZERO_CURRENT }
+    UnitState {
+        state,
+        timer: duration,
+        current: ZERO_CURRENT,
+    }
 }
 
 impl fmt::Display for OperatingState {
@@ -368,14 +403,26 @@ mod tests {
         fn new(below: BelowMinimum, s: impl Fn(&Parameters, &CurrentDynamics) -> UnitState) -> Rig {
             let p = Parameters::default();
             let d = CurrentDynamics::new(&p);
-            let op = OperationParameters { below_minimum: below, ..OperationParameters::default() };
+            let op = OperationParameters {
+                below_minimum: below,
+                ..OperationParameters::default()
+            };
             let s = s(&p, &d);
-            Rig { p, d, f: StepFactors::default(), op, s, totals: UnitTotals::default() }
+            Rig {
+                p,
+                d,
+                f: StepFactors::default(),
+                op,
+                s,
+                totals: UnitTotals::default(),
+            }
         }
         fn run(&mut self, c: Command, duration: f64, h: f64) {
             let n = (duration / h).round() as usize;
             for _ in 0..n {
-                let t = self.s.advance(&self.p, &self.d, &mut self.f, &self.op, c, h);
+                let t = self
+                    .s
+                    .advance(&self.p, &self.d, &mut self.f, &self.op, c, h);
                 self.totals.energy += t.energy;
                 self.totals.charge += t.charge;
                 self.totals.running += t.running;
@@ -407,7 +454,11 @@ mod tests {
         let mut r = Rig::new(BelowMinimum::Off, |_, _| UnitState::idle());
         r.run(Run(80.0), 310.0, 310.0);
         let want = 0.534 * 60.0 + r.p.ramp_up_limit * 10.0;
-        assert!((r.s.stack_current() - want).abs() < 1e-9, "{} vs {want}", r.s.stack_current());
+        assert!(
+            (r.s.stack_current() - want).abs() < 1e-9,
+            "{} vs {want}",
+            r.s.stack_current()
+        );
         let charge = 0.534 * 60.0 * 10.0 + 0.5 * r.p.ramp_up_limit * 100.0;
         assert!((r.totals.charge - charge).abs() < 1e-9);
         assert!((r.totals.running - 10.0).abs() < 1e-12);
@@ -457,7 +508,13 @@ mod tests {
 
     #[test]
     fn transitions_do_not_depend_on_the_step_size() {
-        let schedule = [(Run(90.0), 450.0), (Stop, 120.0), (Run(75.0), 600.0), (Stop, 3900.0), (Run(100.0), 900.0)];
+        let schedule = [
+            (Run(90.0), 450.0),
+            (Stop, 120.0),
+            (Run(75.0), 600.0),
+            (Stop, 3900.0),
+            (Run(100.0), 900.0),
+        ];
         let run = |below, h: f64| {
             let mut r = Rig::new(below, |_, _| UnitState::idle());
             let mut out = Vec::new();
@@ -472,9 +529,22 @@ mod tests {
             for h in [0.1, 0.5, 1.0, 7.5, 15.0] {
                 for (i, (got, want)) in run(below, h).iter().zip(&reference).enumerate() {
                     assert_eq!(got.0, want.0, "h={h} piece {i}");
-                    assert!((got.1 - want.1).abs() < 1e-9, "h={h} piece {i}: {} vs {}", got.1, want.1);
-                    assert!((got.2.energy - want.2.energy).abs() < 1e-9 * want.2.energy.max(1.0), "h={h} piece {i}: {:?} vs {:?}", got, want);
-                    assert!((got.2.running - want.2.running).abs() < 1e-8, "h={h} piece {i}");
+                    assert!(
+                        (got.1 - want.1).abs() < 1e-9,
+                        "h={h} piece {i}: {} vs {}",
+                        got.1,
+                        want.1
+                    );
+                    assert!(
+                        (got.2.energy - want.2.energy).abs() < 1e-9 * want.2.energy.max(1.0),
+                        "h={h} piece {i}: {:?} vs {:?}",
+                        got,
+                        want
+                    );
+                    assert!(
+                        (got.2.running - want.2.running).abs() < 1e-8,
+                        "h={h} piece {i}"
+                    );
                     assert_eq!(got.2.starts, want.2.starts);
                 }
             }
@@ -483,11 +553,20 @@ mod tests {
 
     #[test]
     fn bad_operation_parameters_are_named() {
-        let mut op = OperationParameters { stop_duration: -1.0, ..Default::default() };
+        let mut op = OperationParameters {
+            stop_duration: -1.0,
+            ..Default::default()
+        };
         assert_eq!(op.validate().unwrap_err().name, "stopDuration");
-        op = OperationParameters { warm_start_time: 400.0, ..Default::default() };
+        op = OperationParameters {
+            warm_start_time: 400.0,
+            ..Default::default()
+        };
         let e = op.validate().unwrap_err();
         assert!(e.to_string().contains("warmStartTime = 400"), "{e}");
-        assert!(BelowMinimum::from_code(3).unwrap_err().to_string().contains("belowMinimum = 3"));
+        assert!(BelowMinimum::from_code(3)
+            .unwrap_err()
+            .to_string()
+            .contains("belowMinimum = 3"));
     }
 }

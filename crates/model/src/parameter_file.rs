@@ -119,8 +119,11 @@ pub struct ParameterFile {
 impl ParameterFile {
     /// Reads a parameter file.
     pub fn load(path: &Path) -> Result<ParameterFile, ParameterFileError> {
-        let text = std::fs::read(path)
-            .map_err(|e| ParameterFileError { path: path.into(), line: None, message: e.to_string() })?;
+        let text = std::fs::read(path).map_err(|e| ParameterFileError {
+            path: path.into(),
+            line: None,
+            message: e.to_string(),
+        })?;
         ParameterFile::parse(&text, path)
     }
 
@@ -143,7 +146,11 @@ impl ParameterFile {
                 .find(|m| m.module == id)
                 .ok_or_else(|| format!("no module `{id}` (modules: {})", ids.join(", "))),
             None if self.modules.len() == 1 => Ok(&self.modules[0]),
-            None => Err(format!("{} modules (choose one with --module: {})", self.modules.len(), ids.join(", "))),
+            None => Err(format!(
+                "{} modules (choose one with --module: {})",
+                self.modules.len(),
+                ids.join(", ")
+            )),
         }
     }
 }
@@ -162,10 +169,17 @@ impl ModuleEntry {
         for (name, entry) in &self.parameters {
             let Some(parameter) = ModuleParameter::from_name(name) else {
                 let names: Vec<&str> = ModuleParameter::ALL.iter().map(|p| p.name()).collect();
-                return Err(format!("unknown parameter `{name}` (the FMU's parameters: {})", names.join(", ")));
+                return Err(format!(
+                    "unknown parameter `{name}` (the FMU's parameters: {})",
+                    names.join(", ")
+                ));
             };
             if entry.unit != parameter.unit() {
-                return Err(format!("parameter `{name}` has unit `{}`, the FMU's is `{}`", entry.unit, parameter.unit()));
+                return Err(format!(
+                    "parameter `{name}` has unit `{}`, the FMU's is `{}`",
+                    entry.unit,
+                    parameter.unit()
+                ));
             }
             *p.field_mut(parameter) = entry.value;
         }
@@ -180,13 +194,18 @@ mod tests {
 
     #[test]
     fn a_file_that_is_not_a_parameter_file_names_its_line() {
-        let dir = std::env::temp_dir().join(format!("aem-model-parameter-file-{}", std::process::id()));
+        let dir =
+            std::env::temp_dir().join(format!("aem-model-parameter-file-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("bad.json");
         std::fs::write(&path, "{\n  \"generator\": \"x\",\n  \"modules\": 3\n}\n").unwrap();
         let e = ParameterFile::load(&path).unwrap_err();
         assert_eq!(e.line, Some(3), "{e}");
-        assert!(e.to_string().starts_with(&format!("{}:3: not a parameter file", path.display())), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with(&format!("{}:3: not a parameter file", path.display())),
+            "{e}"
+        );
         let missing = ParameterFile::load(&dir.join("missing.json")).unwrap_err();
         assert_eq!(missing.line, None);
         std::fs::remove_dir_all(&dir).unwrap();
@@ -201,13 +220,20 @@ mod tests {
             poorly_determined: None,
             source: Source::Identified,
         };
-        let mut m = ModuleEntry { module: "a".into(), parameters: BTreeMap::new(), statistics: serde_json::Value::Null };
+        let mut m = ModuleEntry {
+            module: "a".into(),
+            parameters: BTreeMap::new(),
+            statistics: serde_json::Value::Null,
+        };
         m.parameters.insert("gain".into(), entry("A/%"));
         assert_eq!(m.parameters().unwrap().gain, 0.5);
         m.parameters.insert("gain".into(), entry("A"));
         assert!(m.parameters().unwrap_err().contains("unit `A`"));
         m.parameters.remove("gain");
         m.parameters.insert("gainz".into(), entry("A/%"));
-        assert!(m.parameters().unwrap_err().contains("unknown parameter `gainz`"));
+        assert!(m
+            .parameters()
+            .unwrap_err()
+            .contains("unknown parameter `gainz`"));
     }
 }

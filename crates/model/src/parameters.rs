@@ -51,7 +51,13 @@ pub struct ParameterError {
 
 impl fmt::Display for ParameterError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "parameter {} = {} is invalid: {}", self.name, super::shown(self.value), self.requirement)
+        write!(
+            f,
+            "parameter {} = {} is invalid: {}",
+            self.name,
+            super::shown(self.value),
+            self.requirement
+        )
     }
 }
 
@@ -99,7 +105,19 @@ impl ModuleParameter {
     /// Every module parameter, in the model description's order.
     pub const ALL: [ModuleParameter; 11] = {
         use ModuleParameter::*;
-        [Gain, TauZero, TauPole1, TauPole2, RampUpLimit, VoltageIntercept, OhmicResistance, H2Coefficient, NominalCurrent, MinSetpoint, MaxSetpoint]
+        [
+            Gain,
+            TauZero,
+            TauPole1,
+            TauPole2,
+            RampUpLimit,
+            VoltageIntercept,
+            OhmicResistance,
+            H2Coefficient,
+            NominalCurrent,
+            MinSetpoint,
+            MaxSetpoint,
+        ]
     };
 
     /// The name (model description, parameter files).
@@ -219,7 +237,10 @@ impl Parameters {
         let a = (self.tau_zero - t1) / (t2 - t1);
         let b = 1.0 - a;
         let i2 = current * current;
-        if !((a * a * t1 * i2).is_finite() && (b * b * t2 * i2).is_finite() && (a * b * t1 * i2).is_finite()) {
+        if !((a * a * t1 * i2).is_finite()
+            && (b * b * t2 * i2).is_finite()
+            && (a * b * t1 * i2).is_finite())
+        {
             return Err(err(
                 "tauZero",
                 self.tau_zero,
@@ -241,7 +262,11 @@ impl Parameters {
 }
 
 fn err(name: &'static str, value: f64, requirement: &str) -> ParameterError {
-    ParameterError { name, value, requirement: requirement.to_string() }
+    ParameterError {
+        name,
+        value,
+        requirement: requirement.to_string(),
+    }
 }
 
 fn positive(name: &'static str, value: f64) -> Result<(), ParameterError> {
@@ -276,7 +301,10 @@ mod tests {
         let mut p = Parameters::default();
         for (k, parameter) in ModuleParameter::ALL.into_iter().enumerate() {
             *p.field_mut(parameter) = k as f64 + 0.5;
-            assert_eq!(ModuleParameter::from_name(parameter.name()), Some(parameter));
+            assert_eq!(
+                ModuleParameter::from_name(parameter.name()),
+                Some(parameter)
+            );
         }
         // Eleven distinct fields: each got its own value.
         for (k, parameter) in ModuleParameter::ALL.into_iter().enumerate() {

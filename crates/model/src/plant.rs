@@ -106,11 +106,19 @@ impl PlantSettings {
     /// The validated configuration; the error names the first bad value.
     pub fn config(&self) -> Result<PlantConfig, ParameterError> {
         if self.n_modules < 1 {
-            return Err(ParameterError { name: "nModules", value: self.n_modules as f64, requirement: "must be >= 1".into() });
+            return Err(ParameterError {
+                name: "nModules",
+                value: self.n_modules as f64,
+                requirement: "must be >= 1".into(),
+            });
         }
         let spread = self.parameter_spread;
         if !(spread.is_finite() && (0.0..=0.5).contains(&spread)) {
-            return Err(ParameterError { name: "parameterSpread", value: spread, requirement: "must be within [0, 0.5]".into() });
+            return Err(ParameterError {
+                name: "parameterSpread",
+                value: spread,
+                requirement: "must be within [0, 0.5]".into(),
+            });
         }
         if spread > 0.0 && self.n_modules > MAX_INDIVIDUAL_MODULES {
             return Err(ParameterError {
@@ -224,11 +232,19 @@ impl Plant {
                     requirement: "must be 0 with a moduleParameterFile (choose one source of per-module parameters)".into(),
                 });
             }
-            Hub::with_parameter_counts(round_robin(sets, config.hub.n_modules)?, config.hub, demand)?
+            Hub::with_parameter_counts(
+                round_robin(sets, config.hub.n_modules)?,
+                config.hub,
+                demand,
+            )?
         } else if config.parameter_spread > 0.0 {
             params.validate()?;
             let n = config.hub.n_modules as usize;
-            Hub::with_parameter_sets(spread_parameters(&params, n, config.parameter_spread, config.spread_seed), config.hub, demand)?
+            Hub::with_parameter_sets(
+                spread_parameters(&params, n, config.parameter_spread, config.spread_seed),
+                config.hub,
+                demand,
+            )?
         } else {
             Hub::new(params, config.hub, demand)?
         };
@@ -247,7 +263,13 @@ impl Plant {
         request: f64,
     ) -> Result<Self, ParameterError> {
         if request == 0.0 || config.power_input {
-            return Plant::new(params, config, module_sets, setpoint, power_reference + request);
+            return Plant::new(
+                params,
+                config,
+                module_sets,
+                setpoint,
+                power_reference + request,
+            );
         }
         // The setpoint's power needs the hub's first parameter set (spread or from a file).
         let plant = Plant::new(params, config, module_sets, setpoint, power_reference)?;
@@ -265,7 +287,14 @@ impl Plant {
     /// Advances by `h` seconds: the setpoint is `setpoint + slope·t` over the step [%] (a
     /// hub takes slope 0 only), the power reference is held [W]. Refused requests leave the
     /// plant unchanged.
-    pub fn step(&mut self, config: &PlantConfig, setpoint: f64, slope: f64, power_reference: f64, h: f64) -> Result<(), StepError> {
+    pub fn step(
+        &mut self,
+        config: &PlantConfig,
+        setpoint: f64,
+        slope: f64,
+        power_reference: f64,
+        h: f64,
+    ) -> Result<(), StepError> {
         match self {
             Plant::Module(m) => m.step_interpolated(setpoint, slope, h).map(|_| ()),
             Plant::Hub(hub, readings) => {
@@ -302,13 +331,17 @@ impl Plant {
         let mut shortfall = 0.0_f64;
         let (mut now, mut left) = (t, h);
         while left > 0.0 {
-            let cut = response.next_event().filter(|until| *until > now && *until - now < left);
+            let cut = response
+                .next_event()
+                .filter(|until| *until > now && *until - now < left);
             let piece = cut.map_or(left, |until| until - now);
             let request = response.request(frequency);
             self.step_requested(config, setpoint, slope, power_reference, request, piece)?;
             // Nothing asked, nothing short.
             if request != 0.0 {
-                let short = self.reserve_step(config, setpoint, power_reference, request).shortfall;
+                let short = self
+                    .reserve_step(config, setpoint, power_reference, request)
+                    .shortfall;
                 if short.abs() > shortfall.abs() {
                     shortfall = short;
                 }
@@ -319,26 +352,51 @@ impl Plant {
                 response.end_due(f64::INFINITY); // the support ends exactly at the cut
             }
         }
-        let report = self.reserve_step(config, setpoint, power_reference, response.request(frequency));
-        Ok(ReserveStep { shortfall, ..report })
+        let report = self.reserve_step(
+            config,
+            setpoint,
+            power_reference,
+            response.request(frequency),
+        );
+        Ok(ReserveStep {
+            shortfall,
+            ..report
+        })
     }
 
     /// The demand for these inputs with `request` [W] added: to the power reference, or in
     /// setpoint mode to the power the setpoint stands for (N modules at the first parameter
     /// set's steady power at that setpoint), converted back to a setpoint.
-    fn requested_demand(&self, config: &PlantConfig, setpoint: f64, power_reference: f64, request: f64) -> Demand {
+    fn requested_demand(
+        &self,
+        config: &PlantConfig,
+        setpoint: f64,
+        power_reference: f64,
+        request: f64,
+    ) -> Demand {
         match (config.demand(setpoint, power_reference), self) {
             (Demand::Power(p), _) => Demand::Power(p + request),
             (Demand::Setpoint(u), Plant::Hub(hub, _)) => {
                 let (p0, n) = (hub.parameter_set(0), self.modules());
-                Demand::Setpoint(setpoint_for_power(p0, power_at_setpoint(p0, u.max(0.0)) + request / n))
+                Demand::Setpoint(setpoint_for_power(
+                    p0,
+                    power_at_setpoint(p0, u.max(0.0)) + request / n,
+                ))
             }
             (demand, Plant::Module(_)) => demand,
         }
     }
 
     /// One step of a constant `request` [W] ([`Plant::step`] where it is 0).
-    fn step_requested(&mut self, config: &PlantConfig, setpoint: f64, slope: f64, power_reference: f64, request: f64, h: f64) -> Result<(), StepError> {
+    fn step_requested(
+        &mut self,
+        config: &PlantConfig,
+        setpoint: f64,
+        slope: f64,
+        power_reference: f64,
+        request: f64,
+        h: f64,
+    ) -> Result<(), StepError> {
         if request == 0.0 {
             return self.step(config, setpoint, slope, power_reference, h);
         }
@@ -356,24 +414,41 @@ impl Plant {
     }
 
     /// What the operating window lets the plant deliver of `request` [W] at these inputs.
-    pub fn reserve_step(&self, config: &PlantConfig, setpoint: f64, power_reference: f64, request: f64) -> ReserveStep {
+    pub fn reserve_step(
+        &self,
+        config: &PlantConfig,
+        setpoint: f64,
+        power_reference: f64,
+        request: f64,
+    ) -> ReserveStep {
         let (baseline, lo, hi) = match self {
             Plant::Module(m) => {
                 let p = m.parameters();
                 let power = |u: f64| power_at_setpoint(p, u);
-                (power(p.clamp_setpoint(setpoint)), power(p.min_setpoint), power(p.max_setpoint))
+                (
+                    power(p.clamp_setpoint(setpoint)),
+                    power(p.min_setpoint),
+                    power(p.max_setpoint),
+                )
             }
             Plant::Hub(hub, _) => {
                 let (lo, hi) = hub.power_range();
                 let baseline = match config.demand(setpoint, power_reference) {
                     Demand::Power(p) => p,
-                    Demand::Setpoint(u) => self.modules() * power_at_setpoint(hub.parameter_set(0), u.max(0.0)),
+                    Demand::Setpoint(u) => {
+                        self.modules() * power_at_setpoint(hub.parameter_set(0), u.max(0.0))
+                    }
                 };
                 (baseline, lo, hi)
             }
         };
         let deliverable = (baseline + request).clamp(lo, hi) - baseline.clamp(lo, hi);
-        ReserveStep { request, baseline, range: (lo, hi), shortfall: request - deliverable }
+        ReserveStep {
+            request,
+            baseline,
+            range: (lo, hi),
+            shortfall: request - deliverable,
+        }
     }
 
     /// The time-varying state.
@@ -509,7 +584,10 @@ impl Plant {
     /// The most active state of any module: Steady, else Curve, Standby, Blowdown, Idle.
     pub fn state(&self) -> OperatingState {
         use OperatingState::*;
-        [Steady, Curve, Standby, Blowdown].into_iter().find(|&s| self.count_in(s) > 0).unwrap_or(Idle)
+        [Steady, Curve, Standby, Blowdown]
+            .into_iter()
+            .find(|&s| self.count_in(s) > 0)
+            .unwrap_or(Idle)
     }
 }
 
@@ -517,7 +595,11 @@ impl Plant {
 /// Sets beyond the n-th serve no module and are left out.
 fn round_robin(sets: &[Parameters], n: u32) -> Result<Vec<(Parameters, u32)>, ParameterError> {
     if sets.is_empty() {
-        return Err(ParameterError { name: "moduleParameterFile", value: 0.0, requirement: "must hold at least one module".into() });
+        return Err(ParameterError {
+            name: "moduleParameterFile",
+            value: 0.0,
+            requirement: "must hold at least one module".into(),
+        });
     }
     let m = sets.len() as u32;
     Ok(sets

@@ -73,18 +73,28 @@ impl ReserveSettings {
             ("ffrCapacity", self.ffr),
         ] {
             if !(value.is_finite() && value >= 0.0) {
-                return Err(ParameterError { name, value, requirement: "must be a finite number >= 0 W (0: not offered)".into() });
+                return Err(ParameterError {
+                    name,
+                    value,
+                    requirement: "must be a finite number >= 0 W (0: not offered)".into(),
+                });
             }
         }
         if !(49.0..=49.9).contains(&self.ffr_trigger) {
             return Err(ParameterError {
                 name: "ffrTriggerFrequency",
                 value: self.ffr_trigger,
-                requirement: "must be within [49.0, 49.9] Hz (the Nordic options are 49.7, 49.6 and 49.5 Hz)".into(),
+                requirement:
+                    "must be within [49.0, 49.9] Hz (the Nordic options are 49.7, 49.6 and 49.5 Hz)"
+                        .into(),
             });
         }
         if !(self.ffr_duration.is_finite() && self.ffr_duration > 0.0) {
-            return Err(ParameterError { name: "ffrSupportDuration", value: self.ffr_duration, requirement: "must be > 0 s".into() });
+            return Err(ParameterError {
+                name: "ffrSupportDuration",
+                value: self.ffr_duration,
+                requirement: "must be > 0 s".into(),
+            });
         }
         Ok(())
     }
@@ -92,7 +102,12 @@ impl ReserveSettings {
     /// Whether any product is offered or the compensation is on (the plant then holds its
     /// inputs over a step, as a hub does).
     pub fn offered(&self) -> bool {
-        self.fcr_n > 0.0 || self.fcr_d_up > 0.0 || self.fcr_d_down > 0.0 || self.fcr > 0.0 || self.ffr > 0.0 || self.compensation
+        self.fcr_n > 0.0
+            || self.fcr_d_up > 0.0
+            || self.fcr_d_down > 0.0
+            || self.fcr > 0.0
+            || self.ffr > 0.0
+            || self.compensation
     }
 
     /// ΔP [W] of the proportional products (all but FFR) at frequency `f` [Hz].
@@ -139,16 +154,19 @@ pub struct FrequencyResponse {
 impl FrequencyResponse {
     /// An armed controller.
     pub fn new(settings: ReserveSettings) -> Self {
-        FrequencyResponse { settings, fast: FastReserve::Armed }
+        FrequencyResponse {
+            settings,
+            fast: FastReserve::Armed,
+        }
     }
 
     /// At a step's start `t` [s] with frequency `f` [Hz]: FFR triggers, or re-arms.
     pub fn begin_step(&mut self, t: f64, f: f64) {
         let trigger = self.settings.ffr_trigger;
         self.fast = match self.fast {
-            FastReserve::Armed if self.settings.ffr > 0.0 && f <= trigger => {
-                FastReserve::Active { until: t + self.settings.ffr_duration }
-            }
+            FastReserve::Armed if self.settings.ffr > 0.0 && f <= trigger => FastReserve::Active {
+                until: t + self.settings.ffr_duration,
+            },
             FastReserve::Spent if f > trigger => FastReserve::Armed,
             other => other,
         };
@@ -186,36 +204,85 @@ mod tests {
     use super::*;
 
     fn offering(fcr_n: f64, fcr_d_up: f64, fcr_d_down: f64, fcr: f64) -> ReserveSettings {
-        ReserveSettings { fcr_n, fcr_d_up, fcr_d_down, fcr, ..ReserveSettings::default() }
+        ReserveSettings {
+            fcr_n,
+            fcr_d_up,
+            fcr_d_down,
+            fcr,
+            ..ReserveSettings::default()
+        }
     }
 
     #[test]
     fn each_product_activates_linearly_over_its_band_and_caps_at_full() {
         let n = offering(1.0, 0.0, 0.0, 0.0);
-        for (f, want) in [(50.0, 0.0), (49.95, -0.5), (49.9, -1.0), (49.0, -1.0), (50.05, 0.5), (50.1, 1.0), (51.0, 1.0)] {
-            assert!((n.proportional(f) - want).abs() < 1e-12, "FCR-N at {f}: {}", n.proportional(f));
+        for (f, want) in [
+            (50.0, 0.0),
+            (49.95, -0.5),
+            (49.9, -1.0),
+            (49.0, -1.0),
+            (50.05, 0.5),
+            (50.1, 1.0),
+            (51.0, 1.0),
+        ] {
+            assert!(
+                (n.proportional(f) - want).abs() < 1e-12,
+                "FCR-N at {f}: {}",
+                n.proportional(f)
+            );
         }
         let up = offering(0.0, 1.0, 0.0, 0.0);
-        for (f, want) in [(50.0, 0.0), (49.9, 0.0), (49.8, -0.25), (49.5, -1.0), (49.0, -1.0), (50.3, 0.0)] {
+        for (f, want) in [
+            (50.0, 0.0),
+            (49.9, 0.0),
+            (49.8, -0.25),
+            (49.5, -1.0),
+            (49.0, -1.0),
+            (50.3, 0.0),
+        ] {
             assert!((up.proportional(f) - want).abs() < 1e-12, "FCR-D up at {f}");
         }
         let down = offering(0.0, 0.0, 1.0, 0.0);
-        for (f, want) in [(50.0, 0.0), (50.1, 0.0), (50.3, 0.5), (50.5, 1.0), (51.0, 1.0), (49.5, 0.0)] {
-            assert!((down.proportional(f) - want).abs() < 1e-12, "FCR-D down at {f}");
+        for (f, want) in [
+            (50.0, 0.0),
+            (50.1, 0.0),
+            (50.3, 0.5),
+            (50.5, 1.0),
+            (51.0, 1.0),
+            (49.5, 0.0),
+        ] {
+            assert!(
+                (down.proportional(f) - want).abs() < 1e-12,
+                "FCR-D down at {f}"
+            );
         }
         let ce = offering(0.0, 0.0, 0.0, 1.0);
-        for (f, want) in [(50.0, 0.0), (49.9, -0.5), (49.8, -1.0), (49.0, -1.0), (50.2, 1.0)] {
+        for (f, want) in [
+            (50.0, 0.0),
+            (49.9, -0.5),
+            (49.8, -1.0),
+            (49.0, -1.0),
+            (50.2, 1.0),
+        ] {
             assert!((ce.proportional(f) - want).abs() < 1e-12, "FCR at {f}");
         }
         assert_eq!(ReserveSettings::default().proportional(47.0), 0.0);
         let all = offering(2.0, 3.0, 5.0, 7.0);
-        assert_eq!((all.reduction_offered(), all.increase_offered()), (12.0, 14.0));
+        assert_eq!(
+            (all.reduction_offered(), all.increase_offered()),
+            (12.0, 14.0)
+        );
         assert!((all.proportional(49.5) - (-2.0 - 3.0 - 7.0)).abs() < 1e-12);
     }
 
     #[test]
     fn ffr_triggers_holds_for_its_duration_and_rearms_above_the_trigger() {
-        let settings = ReserveSettings { ffr: 10.0, ffr_trigger: 49.6, ffr_duration: 5.0, ..ReserveSettings::default() };
+        let settings = ReserveSettings {
+            ffr: 10.0,
+            ffr_trigger: 49.6,
+            ffr_duration: 5.0,
+            ..ReserveSettings::default()
+        };
         let mut r = FrequencyResponse::new(settings);
         r.begin_step(0.0, 49.61);
         assert_eq!((r.request(49.61), r.next_event()), (0.0, None));
@@ -237,10 +304,28 @@ mod tests {
     #[test]
     fn bad_settings_are_named() {
         let bad = |s: ReserveSettings| s.validate().unwrap_err().to_string();
-        assert!(bad(ReserveSettings { fcr_d_up: -1.0, ..Default::default() }).contains("fcrDUpCapacity"));
-        assert!(bad(ReserveSettings { ffr: f64::NAN, ..Default::default() }).contains("ffrCapacity"));
-        assert!(bad(ReserveSettings { ffr_trigger: 49.95, ..Default::default() }).contains("ffrTriggerFrequency"));
-        assert!(bad(ReserveSettings { ffr_duration: 0.0, ..Default::default() }).contains("ffrSupportDuration"));
-        assert!(ReserveSettings::default().validate().is_ok() && !ReserveSettings::default().offered());
+        assert!(bad(ReserveSettings {
+            fcr_d_up: -1.0,
+            ..Default::default()
+        })
+        .contains("fcrDUpCapacity"));
+        assert!(bad(ReserveSettings {
+            ffr: f64::NAN,
+            ..Default::default()
+        })
+        .contains("ffrCapacity"));
+        assert!(bad(ReserveSettings {
+            ffr_trigger: 49.95,
+            ..Default::default()
+        })
+        .contains("ffrTriggerFrequency"));
+        assert!(bad(ReserveSettings {
+            ffr_duration: 0.0,
+            ..Default::default()
+        })
+        .contains("ffrSupportDuration"));
+        assert!(
+            ReserveSettings::default().validate().is_ok() && !ReserveSettings::default().offered()
+        );
     }
 }

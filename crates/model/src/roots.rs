@@ -5,7 +5,13 @@
 ///
 /// Halley steps (cubic convergence) inside the shrinking bracket; a step that leaves the
 /// bracket is replaced by bisection, so it always converges.
-pub fn monotone_root(f: impl Fn(f64) -> (f64, f64, f64), lo: f64, hi: f64, f_lo: f64, f_hi: f64) -> f64 {
+pub fn monotone_root(
+    f: impl Fn(f64) -> (f64, f64, f64),
+    lo: f64,
+    hi: f64,
+    f_lo: f64,
+    f_hi: f64,
+) -> f64 {
     if f_lo == 0.0 {
         return lo;
     }
@@ -39,7 +45,11 @@ pub fn monotone_root(f: impl Fn(f64) -> (f64, f64, f64), lo: f64, hi: f64, f_lo:
             continue;
         }
         let halley = x - 2.0 * fx * d1 / (2.0 * d1 * d1 - fx * d2);
-        let next = if halley > a && halley < b { halley } else { newton };
+        let next = if halley > a && halley < b {
+            halley
+        } else {
+            newton
+        };
         // Converged when the step is within a few ulps of the iterate.
         if (next - x).abs() <= 4.0 * f64::EPSILON * x.abs() {
             return next;
@@ -61,7 +71,13 @@ mod tests {
         let r = monotone_root(|t| (e(t) - 0.5, -e(t), e(t)), 0.0, 10.0, 0.5, e(10.0) - 0.5);
         assert!((r - 2f64.ln()).abs() < 4e-16);
         // A flat-then-steep function where the local steps overshoot: bisection takes over.
-        let r = monotone_root(|t| (t.powi(9) - 1e-3, 9.0 * t.powi(8), 72.0 * t.powi(7)), 0.0, 3.0, -1e-3, 3f64.powi(9));
+        let r = monotone_root(
+            |t| (t.powi(9) - 1e-3, 9.0 * t.powi(8), 72.0 * t.powi(7)),
+            0.0,
+            3.0,
+            -1e-3,
+            3f64.powi(9),
+        );
         assert!((r - 1e-3f64.powf(1.0 / 9.0)).abs() < 1e-14);
     }
 }

@@ -31,13 +31,32 @@ mod tests {
 
     #[test]
     fn they_give_what_the_f64_methods_give() {
-        let xs = [f64::NAN, f64::NEG_INFINITY, -3.0, -0.0, 0.0, 0.5, 60.0, 99.9, 100.0, 1e300, f64::INFINITY];
+        let xs = [
+            f64::NAN,
+            f64::NEG_INFINITY,
+            -3.0,
+            -0.0,
+            0.0,
+            0.5,
+            60.0,
+            99.9,
+            100.0,
+            1e300,
+            f64::INFINITY,
+        ];
         for x in xs {
             for floor in [0.0, 1.0, -2.0] {
-                assert_eq!(at_least(x, floor).to_bits(), x.max(floor).to_bits(), "max({x}, {floor})");
+                assert_eq!(
+                    at_least(x, floor).to_bits(),
+                    x.max(floor).to_bits(),
+                    "max({x}, {floor})"
+                );
             }
             let (got, want) = (clamped(x, 60.0, 100.0), x.clamp(60.0, 100.0));
-            assert!(got.to_bits() == want.to_bits(), "clamp({x}): {got} vs {want}");
+            assert!(
+                got.to_bits() == want.to_bits(),
+                "clamp({x}): {got} vs {want}"
+            );
         }
     }
 }

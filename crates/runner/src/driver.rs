@@ -37,8 +37,17 @@ pub struct Scenario {
 
 /// The module's own parameters: those a probe of one module takes from the scenario.
 const MODULE_PARAMETERS: [&str; 11] = [
-    "gain", "tauZero", "tauPole1", "tauPole2", "rampUpLimit", "voltageIntercept",
-    "ohmicResistance", "h2Coefficient", "nominalCurrent", "minSetpoint", "maxSetpoint",
+    "gain",
+    "tauZero",
+    "tauPole1",
+    "tauPole2",
+    "rampUpLimit",
+    "voltageIntercept",
+    "ohmicResistance",
+    "h2Coefficient",
+    "nominalCurrent",
+    "minSetpoint",
+    "maxSetpoint",
 ];
 
 /// Outputs read at the end of the run.
@@ -48,7 +57,9 @@ const TOTALS: [&str; 4] = ["hubEnergy", "hubH2Produced", "starts", "runningHours
 fn check(what: &str, result: std::result::Result<Fmi2Res, fmi::fmi2::Fmi2Error>) -> Result<()> {
     match result {
         Ok(Fmi2Res::OK | Fmi2Res::Warning) => Ok(()),
-        Ok(Fmi2Res::Pending) => Err(format!("{what} returned Pending (asynchronous steps are not asked for)")),
+        Ok(Fmi2Res::Pending) => Err(format!(
+            "{what} returned Pending (asynchronous steps are not asked for)"
+        )),
         Err(e) => Err(format!("{what} returned {e:?}")),
     }
 }
@@ -69,7 +80,10 @@ fn set_by_name(import: &Fmi2Import, fmu: &mut InstanceCS, name: &str, text: &str
     let var = md.model_variables.variables.iter().find(|v| v.name == name);
     let var = var.ok_or_else(|| format!("the FMU has no parameter {name}"))?;
     if !matches!(var.causality, Causality::Parameter | Causality::Input) {
-        return Err(format!("{name} is an {} of the FMU, not a parameter", var.causality));
+        return Err(format!(
+            "{name} is an {} of the FMU, not a parameter",
+            var.causality
+        ));
     }
     let vr = [var.value_reference];
     let bad = |kind: &str| format!("{name} = {text:?} is not {kind}");
@@ -80,7 +94,10 @@ fn set_by_name(import: &Fmi2Import, fmu: &mut InstanceCS, name: &str, text: &str
             check(&what, fmu.set_real(&vr, &[x]))
         }
         ScalarVariableElement::Integer(_) | ScalarVariableElement::Enumeration => {
-            let n: i32 = text.trim().parse().map_err(|_| bad("an integer (enumeration items are set by their code)"))?;
+            let n: i32 = text
+                .trim()
+                .parse()
+                .map_err(|_| bad("an integer (enumeration items are set by their code)"))?;
             check(&what, fmu.set_integer(&vr, &[n]))
         }
         ScalarVariableElement::Boolean(_) => {
@@ -93,7 +110,8 @@ fn set_by_name(import: &Fmi2Import, fmu: &mut InstanceCS, name: &str, text: &str
         }
         ScalarVariableElement::String => {
             let s = CString::new(text).map_err(|_| bad("a string without NUL"))?;
-            fmu.set_string(&vr, &[s]).map_err(|e| format!("{what} returned {e:?}"))
+            fmu.set_string(&vr, &[s])
+                .map_err(|e| format!("{what} returned {e:?}"))
         }
     }
 }
@@ -101,7 +119,11 @@ fn set_by_name(import: &Fmi2Import, fmu: &mut InstanceCS, name: &str, text: &str
 /// kg per Nl: the `kg` display unit of the unit `Nl` in the model description.
 fn kilograms_per_normal_litre(import: &Fmi2Import) -> Result<f64> {
     let md = fmi::traits::FmiImport::model_description(import);
-    let units = md.unit_definitions.as_ref().map(|u| u.units.as_slice()).unwrap_or_default();
+    let units = md
+        .unit_definitions
+        .as_ref()
+        .map(|u| u.units.as_slice())
+        .unwrap_or_default();
     units
         .iter()
         .filter(|u| u.name == "Nl")
@@ -114,39 +136,69 @@ fn kilograms_per_normal_litre(import: &Fmi2Import) -> Result<f64> {
 /// Steady electric power [W] of one module at maxSetpoint: a probe instance of one module
 /// with the scenario's module parameters, held at maxSetpoint long enough to settle.
 pub fn module_rated_power(import: &Fmi2Import, parameters: &[(String, String)]) -> Result<f64> {
-    let mut probe = import.instantiate_cs("aem-run probe", false, false).map_err(|e| format!("fmi2Instantiate: {e}"))?;
-    for (name, value) in parameters.iter().filter(|(n, _)| MODULE_PARAMETERS.contains(&n.as_str())) {
+    let mut probe = import
+        .instantiate_cs("aem-run probe", false, false)
+        .map_err(|e| format!("fmi2Instantiate: {e}"))?;
+    for (name, value) in parameters
+        .iter()
+        .filter(|(n, _)| MODULE_PARAMETERS.contains(&n.as_str()))
+    {
         set_by_name(import, &mut probe, name, value)?;
     }
     check("setupExperiment", probe.setup_experiment(None, 0.0, None))?;
     check("enterInitializationMode", probe.enter_initialization_mode())?;
     let mut max_setpoint = [0.0];
-    check("getReal maxSetpoint", probe.get_real(&[value_reference(import, "maxSetpoint")?], &mut max_setpoint))?;
-    check("setReal setpoint", probe.set_real(&[value_reference(import, "setpoint")?], &max_setpoint))?;
+    check(
+        "getReal maxSetpoint",
+        probe.get_real(
+            &[value_reference(import, "maxSetpoint")?],
+            &mut max_setpoint,
+        ),
+    )?;
+    check(
+        "setReal setpoint",
+        probe.set_real(&[value_reference(import, "setpoint")?], &max_setpoint),
+    )?;
     check("exitInitializationMode", probe.exit_initialization_mode())?;
     // The slowest time constant is minutes at most, the start-up a few: a day settles it.
     check("doStep", probe.do_step(0.0, 86_400.0, true))?;
     let mut power = [0.0];
-    check("getReal power", probe.get_real(&[value_reference(import, "power")?], &mut power))?;
+    check(
+        "getReal power",
+        probe.get_real(&[value_reference(import, "power")?], &mut power),
+    )?;
     if !(power[0] > 0.0) {
-        return Err(format!("a module at maxSetpoint draws {} W: cannot size the hub", power[0]));
+        return Err(format!(
+            "a module at maxSetpoint draws {} W: cannot size the hub",
+            power[0]
+        ));
     }
     Ok(power[0])
 }
 
 /// Runs the scenario and returns the FMU's totals and, for a power reference, the sums.
 pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>)> {
-    let import: Fmi2Import = fmi::import::from_path(fmu_path).map_err(|e| format!("cannot load {}: {e}", fmu_path.display()))?;
+    let import: Fmi2Import = fmi::import::from_path(fmu_path)
+        .map_err(|e| format!("cannot load {}: {e}", fmu_path.display()))?;
     let h = scenario.step;
     let n = scenario.reference.len();
     if !(h > 0.0 && h.is_finite()) || n == 0 {
         return Err("need a step > 0 and a reference of at least one step".into());
     }
     if let Some(k) = scenario.reference.iter().position(|x| !x.is_finite()) {
-        return Err(format!("the reference is not a number at step {k} (time {} s)", scenario.start + k as f64 * h));
+        return Err(format!(
+            "the reference is not a number at step {k} (time {} s)",
+            scenario.start + k as f64 * h
+        ));
     }
-    if scenario.parameters.iter().any(|(name, _)| name == "powerInput") {
-        return Err("powerInput follows the driven input (power or setpoint); do not set it".into());
+    if scenario
+        .parameters
+        .iter()
+        .any(|(name, _)| name == "powerInput")
+    {
+        return Err(
+            "powerInput follows the driven input (power or setpoint); do not set it".into(),
+        );
     }
     let module_power = module_rated_power(&import, &scenario.parameters)?;
     let mut parameters = scenario.parameters.clone();
@@ -156,26 +208,52 @@ pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>
         }
         let modules = (fraction * rating / module_power).round();
         if !(modules >= 1.0 && modules <= f64::from(i32::MAX)) {
-            return Err(format!("hub size {fraction} of {rating} W is {modules} modules of {module_power} W"));
+            return Err(format!(
+                "hub size {fraction} of {rating} W is {modules} modules of {module_power} W"
+            ));
         }
         parameters.push(("nModules".into(), format!("{modules}")));
     }
-    parameters.push(("powerInput".into(), (scenario.input == Input::Power).to_string()));
+    parameters.push((
+        "powerInput".into(),
+        (scenario.input == Input::Power).to_string(),
+    ));
 
-    let mut fmu = import.instantiate_cs("aem-run", false, false).map_err(|e| format!("fmi2Instantiate: {e}"))?;
+    let mut fmu = import
+        .instantiate_cs("aem-run", false, false)
+        .map_err(|e| format!("fmi2Instantiate: {e}"))?;
     for (name, value) in &parameters {
         set_by_name(&import, &mut fmu, name, value)?;
     }
-    let input_vr = [value_reference(&import, if scenario.input == Input::Power { "powerReference" } else { "setpoint" })?];
+    let input_vr = [value_reference(
+        &import,
+        if scenario.input == Input::Power {
+            "powerReference"
+        } else {
+            "setpoint"
+        },
+    )?];
     let energy_vr = [value_reference(&import, "hubEnergy")?];
-    let totals_vrs = TOTALS.iter().map(|name| value_reference(&import, name)).collect::<Result<Vec<u32>>>()?;
+    let totals_vrs = TOTALS
+        .iter()
+        .map(|name| value_reference(&import, name))
+        .collect::<Result<Vec<u32>>>()?;
     let stop = scenario.start + n as f64 * h;
-    check("setupExperiment", fmu.setup_experiment(None, scenario.start, Some(stop)))?;
-    check("setReal of the input", fmu.set_real(&input_vr, &scenario.reference[..1]))?;
+    check(
+        "setupExperiment",
+        fmu.setup_experiment(None, scenario.start, Some(stop)),
+    )?;
+    check(
+        "setReal of the input",
+        fmu.set_real(&input_vr, &scenario.reference[..1]),
+    )?;
     check("enterInitializationMode", fmu.enter_initialization_mode())?;
     check("exitInitializationMode", fmu.exit_initialization_mode())?;
     let mut modules = [0];
-    check("getInteger nModules", fmu.get_integer(&[value_reference(&import, "nModules")?], &mut modules))?;
+    check(
+        "getInteger nModules",
+        fmu.get_integer(&[value_reference(&import, "nModules")?], &mut modules),
+    )?;
     let mut at_start = [0.0; TOTALS.len()];
     check("getReal", fmu.get_real(&totals_vrs, &mut at_start))?;
 
@@ -184,7 +262,10 @@ pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>
     let mut energy = [at_start[0]];
     for (k, &reference) in scenario.reference.iter().enumerate() {
         let t = scenario.start + k as f64 * h;
-        check("setReal of the input", fmu.set_real(&input_vr, &[reference]))?;
+        check(
+            "setReal of the input",
+            fmu.set_real(&input_vr, &[reference]),
+        )?;
         // The call's name is formatted only when it failed (a year is 31.5 million steps).
         check("doStep", fmu.do_step(t, h, true)).map_err(|e| format!("{e} at {t} s"))?;
         let before = energy[0];

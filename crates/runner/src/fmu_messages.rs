@@ -13,7 +13,9 @@ struct Collector {
     messages: Mutex<(Vec<String>, usize)>,
 }
 
-static COLLECTOR: Collector = Collector { messages: Mutex::new((Vec::new(), 0)) };
+static COLLECTOR: Collector = Collector {
+    messages: Mutex::new((Vec::new(), 0)),
+};
 
 impl log::Log for Collector {
     fn enabled(&self, metadata: &Metadata) -> bool {
@@ -29,7 +31,11 @@ impl log::Log for Collector {
         if let Ok(mut guard) = self.messages.lock() {
             let (kept, dropped) = &mut *guard;
             if kept.len() < KEPT {
-                let level = if record.level() == Level::Trace { "DISCARD" } else { record.level().as_str() };
+                let level = if record.level() == Level::Trace {
+                    "DISCARD"
+                } else {
+                    record.level().as_str()
+                };
                 kept.push(format!("{level} {}: {}", record.target(), record.args()));
             } else {
                 *dropped += 1;
@@ -50,5 +56,9 @@ pub fn install() {
 
 /// The messages so far (and how many more were dropped), emptying the collector.
 pub fn take() -> (Vec<String>, usize) {
-    COLLECTOR.messages.lock().map(|mut g| std::mem::take(&mut *g)).unwrap_or_default()
+    COLLECTOR
+        .messages
+        .lock()
+        .map(|mut g| std::mem::take(&mut *g))
+        .unwrap_or_default()
 }

@@ -70,13 +70,28 @@ pub fn row(totals: &Totals, sums: Option<&Sums>) -> Map<String, Value> {
     put("reference energy [MWh]", wind(|s| s.reference / J_PER_MWH));
     put("energy drawn [MWh]", number(energy_mwh));
     put("hydrogen [kg]", number(totals.hydrogen));
-    put("specific energy [kWh/kg]", number(energy_mwh * 1e3 / totals.hydrogen));
-    put("wind not absorbed [MWh]", wind(|s| s.not_absorbed / J_PER_MWH));
+    put(
+        "specific energy [kWh/kg]",
+        number(energy_mwh * 1e3 / totals.hydrogen),
+    );
+    put(
+        "wind not absorbed [MWh]",
+        wind(|s| s.not_absorbed / J_PER_MWH),
+    );
     put("grid import [MWh]", wind(|s| s.imported / J_PER_MWH));
-    put("full-load hours [h]", number(totals.energy / 3600.0 / rated));
+    put(
+        "full-load hours [h]",
+        number(totals.energy / 3600.0 / rated),
+    );
     put("starts per module [1]", number(totals.starts / modules));
-    put("running hours per module [h]", number(totals.running_hours / modules));
-    put("rms tracking error [MW]", wind(|s| (s.squared_error / s.steps as f64).sqrt() / 1e6));
+    put(
+        "running hours per module [h]",
+        number(totals.running_hours / modules),
+    );
+    put(
+        "rms tracking error [MW]",
+        wind(|s| (s.squared_error / s.steps as f64).sqrt() / 1e6),
+    );
     row
 }
 
@@ -116,7 +131,10 @@ mod tests {
         assert_eq!(get("starts per module [1]"), 2.0);
         assert_eq!(get("hub rated power [MW]"), 50.0);
         assert_eq!(get("full-load hours [h]"), 122e6 / 3600.0 / 50e6);
-        assert_eq!(get("specific energy [kWh/kg]"), 122e6 / J_PER_MWH * 1e3 / 2.0);
+        assert_eq!(
+            get("specific energy [kWh/kg]"),
+            122e6 / J_PER_MWH * 1e3 / 2.0
+        );
     }
 
     #[test]
@@ -132,6 +150,9 @@ mod tests {
         };
         let row = row(&totals, None);
         assert!(row["wind not absorbed [MWh]"].is_null());
-        assert!(row["specific energy [kWh/kg]"].is_null(), "0/0 is no number");
+        assert!(
+            row["specific energy [kWh/kg]"].is_null(),
+            "0/0 is no number"
+        );
     }
 }

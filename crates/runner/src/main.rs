@@ -43,8 +43,15 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
     let (mut hub_size, mut source_rating) = (None, None);
     let mut it = argv.iter();
     while let Some(flag) = it.next() {
-        let mut value = || it.next().cloned().ok_or_else(|| format!("{flag} needs a value"));
-        let number = |text: String| text.parse::<f64>().map_err(|_| format!("{flag} {text}: not a number"));
+        let mut value = || {
+            it.next()
+                .cloned()
+                .ok_or_else(|| format!("{flag} needs a value"))
+        };
+        let number = |text: String| {
+            text.parse::<f64>()
+                .map_err(|_| format!("{flag} {text}: not a number"))
+        };
         match flag.as_str() {
             "--fmu" => fmu = Some(PathBuf::from(value()?)),
             "--reference" => reference = Some(PathBuf::from(value()?)),
@@ -61,7 +68,9 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
             }
             "--param" => {
                 let text = value()?;
-                let (name, v) = text.split_once('=').ok_or(format!("--param {text}: NAME=VALUE"))?;
+                let (name, v) = text
+                    .split_once('=')
+                    .ok_or(format!("--param {text}: NAME=VALUE"))?;
                 parameters.push((name.trim().to_string(), v.to_string()));
             }
             other => return Err(format!("unknown argument {other}")),
@@ -75,7 +84,14 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
     let reference = read_reference(&reference.ok_or("--reference is required")?)?;
     Ok(Args {
         fmu: fmu.ok_or("--fmu is required")?,
-        scenario: Scenario { parameters, input, reference, start, step: step.ok_or("--step is required")?, hub_size },
+        scenario: Scenario {
+            parameters,
+            input,
+            reference,
+            start,
+            step: step.ok_or("--step is required")?,
+            hub_size,
+        },
     })
 }
 
@@ -86,10 +102,14 @@ fn read_reference(path: &Path) -> Result<Vec<f64>, String> {
     let file = File::open(path).map_err(cannot)?;
     let bytes = file.metadata().map_err(cannot)?.len();
     if bytes % 8 != 0 {
-        return Err(format!("{}: {bytes} bytes is not a whole number of f64", path.display()));
+        return Err(format!(
+            "{}: {bytes} bytes is not a whole number of f64",
+            path.display()
+        ));
     }
     let mut reader = BufReader::with_capacity(1 << 16, file);
-    let mut values = Vec::with_capacity(usize::try_from(bytes / 8).map_err(|_| "the reference is too large")?);
+    let mut values =
+        Vec::with_capacity(usize::try_from(bytes / 8).map_err(|_| "the reference is too large")?);
     let mut value = [0u8; 8];
     for _ in 0..bytes / 8 {
         reader.read_exact(&mut value).map_err(cannot)?;
@@ -120,8 +140,16 @@ fn main() {
             0,
         ),
         Err(error) => {
-            let text = messages.iter().filter_map(Value::as_str).collect::<Vec<_>>().join(" | ");
-            let message = if text.is_empty() { error } else { format!("{error}. The FMU: {text}") };
+            let text = messages
+                .iter()
+                .filter_map(Value::as_str)
+                .collect::<Vec<_>>()
+                .join(" | ");
+            let message = if text.is_empty() {
+                error
+            } else {
+                format!("{error}. The FMU: {text}")
+            };
             (json!({ "status": "failed", "message": message }), 1)
         }
     };

@@ -31,7 +31,14 @@ impl Stepper {
             (true, Share::Setpoint(u), None) => Command::Run(u),
             (true, Share::Power(p), None) => Command::Run(setpoint_for_power(&ty.params, p)),
         };
-        let t = g.unit.advance(&ty.params, &ty.dynamics, &mut ty.factors, &self.op, command, self.piece);
+        let t = g.unit.advance(
+            &ty.params,
+            &ty.dynamics,
+            &mut ty.factors,
+            &self.op,
+            command,
+            self.piece,
+        );
         self.add(ty, g, &t, tally, k);
     }
 
@@ -75,7 +82,11 @@ impl Stepper {
     /// arithmetic as the scalar path).
     #[inline(always)]
     fn tracked(&self, g: &mut Group, o: &Outcomes, k: usize, tally: &mut Tally) {
-        g.unit.current = CurrentState { z1: o.z1[k], z2: o.z2[k], current: o.current[k] };
+        g.unit.current = CurrentState {
+            z1: o.z1[k],
+            z2: o.z2[k],
+            current: o.current[k],
+        };
         if self.rotation {
             g.running += self.piece;
         }
@@ -86,7 +97,11 @@ impl Stepper {
     #[inline(always)]
     fn tracked_block(&self, block: &mut [Group; LANES], o: &Outcomes, tally: &mut Tally) {
         for (k, g) in block.iter_mut().enumerate() {
-            g.unit.current = CurrentState { z1: o.z1[k], z2: o.z2[k], current: o.current[k] };
+            g.unit.current = CurrentState {
+                z1: o.z1[k],
+                z2: o.z2[k],
+                current: o.current[k],
+            };
             if self.rotation {
                 g.running += self.piece;
             }
@@ -121,7 +136,10 @@ impl Visit<Group> for ChunkVisitor<'_> {
         for (k, g) in gs.iter().enumerate() {
             tracks[k] = g.active & (g.unit.state == OperatingState::Steady) & o.tracks[k];
         }
-        if let (Ok(block), true) = (<&mut [Group; LANES]>::try_from(&mut *gs), tracks == [true; LANES]) {
+        if let (Ok(block), true) = (
+            <&mut [Group; LANES]>::try_from(&mut *gs),
+            tracks == [true; LANES],
+        ) {
             self.step.tracked_block(block, o, self.tally);
             return;
         }

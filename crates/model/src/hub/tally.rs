@@ -88,7 +88,15 @@ impl Tally {
     /// `count` Steady modules (lane k) at current `i` [A], power (V0 + R·I)·I [W], hydrogen
     /// c·I [Nl/h] and voltage V0 + R·I [V] each.
     #[inline(always)]
-    fn observe_steady(&mut self, k: usize, count: u32, i: f64, power: f64, h2_flow: f64, voltage: f64) {
+    fn observe_steady(
+        &mut self,
+        k: usize,
+        count: u32,
+        i: f64,
+        power: f64,
+        h2_flow: f64,
+        voltage: f64,
+    ) {
         let c = count as f64;
         self.power[k] += c * power;
         self.h2_flow[k] += c * h2_flow;
@@ -107,7 +115,14 @@ impl Tally {
         self.h2_produced[k] += c * o.hydrogen[k];
         self.running[k] += c * piece;
         self.carrying += count;
-        self.observe_steady(k, count, o.current[k], o.power[k], o.h2_flow[k], o.voltage[k]);
+        self.observe_steady(
+            k,
+            count,
+            o.current[k],
+            o.power[k],
+            o.h2_flow[k],
+            o.voltage[k],
+        );
     }
 
     /// [`Self::tracked`] for a whole block of four groups of `counts` modules (the same
@@ -179,7 +194,11 @@ pub(super) struct Survey {
 
 impl Survey {
     pub fn new() -> Self {
-        Survey { carrying: 0, others: 0.0, next_event: None }
+        Survey {
+            carrying: 0,
+            others: 0.0,
+            next_event: None,
+        }
     }
 
     /// Adds a chunk's part (chunks in order).
@@ -187,7 +206,10 @@ impl Survey {
         self.carrying += t.carrying;
         self.others += t.others;
         if t.next_event.is_finite() {
-            self.next_event = Some(self.next_event.map_or(t.next_event, |e| e.min(t.next_event)));
+            self.next_event = Some(
+                self.next_event
+                    .map_or(t.next_event, |e| e.min(t.next_event)),
+            );
         }
     }
 }
@@ -220,7 +242,11 @@ impl ReadingSums {
             power: self.power,
             h2_flow: self.h2_flow,
             current: self.current,
-            voltage: if self.steady > 0 { self.voltage / self.steady as f64 } else { 0.0 },
+            voltage: if self.steady > 0 {
+                self.voltage / self.steady as f64
+            } else {
+                0.0
+            },
             counts: self.counts,
         }
     }

@@ -2,7 +2,15 @@ use super::*;
 use crate::Module;
 
 fn config(n: u32, policy: DispatchPolicy, below: BelowMinimum) -> HubConfig {
-    HubConfig { n_modules: n, policy, operation: OperationParameters { below_minimum: below, ..Default::default() }, ..Default::default() }
+    HubConfig {
+        n_modules: n,
+        policy,
+        operation: OperationParameters {
+            below_minimum: below,
+            ..Default::default()
+        },
+        ..Default::default()
+    }
 }
 
 fn run(hub: &mut Hub, demand: Demand, duration: f64, h: f64) {
@@ -32,11 +40,25 @@ fn one_module_hub_in_minimum_mode_is_the_paper_module() {
 #[test]
 fn equal_hub_of_n_is_n_times_one_module() {
     let p = Parameters::default();
-    let schedule = [(80.0, 600.0), (30.0, 900.0), (90.0, 800.0), (10.0, 4000.0), (70.0, 700.0)];
+    let schedule = [
+        (80.0, 600.0),
+        (30.0, 900.0),
+        (90.0, 800.0),
+        (10.0, 4000.0),
+        (70.0, 700.0),
+    ];
     let n = 25_000;
     let cfg = config(n, DispatchPolicy::Equal, BelowMinimum::Standby);
     let mut hub = Hub::new(p, cfg, Demand::Setpoint(80.0)).unwrap();
-    let mut one = Hub::new(p, HubConfig { n_modules: 1, ..cfg }, Demand::Setpoint(80.0)).unwrap();
+    let mut one = Hub::new(
+        p,
+        HubConfig {
+            n_modules: 1,
+            ..cfg
+        },
+        Demand::Setpoint(80.0),
+    )
+    .unwrap();
     for &(u, d) in &schedule {
         run(&mut hub, Demand::Setpoint(u), d, 1.0);
         run(&mut one, Demand::Setpoint(u), d, 1.0);
@@ -56,16 +78,27 @@ fn equal_hub_of_n_is_n_times_one_module() {
 #[test]
 fn a_hub_told_a_constant_power_draws_it_in_steady_state() {
     let p = Parameters::default();
-    for policy in [DispatchPolicy::Equal, DispatchPolicy::Sequential, DispatchPolicy::Rotation] {
+    for policy in [
+        DispatchPolicy::Equal,
+        DispatchPolicy::Sequential,
+        DispatchPolicy::Rotation,
+    ] {
         for below in [BelowMinimum::Standby, BelowMinimum::Off] {
             let mut hub = Hub::new(p, config(10, policy, below), Demand::Power(0.0)).unwrap();
             assert_eq!(hub.count_in(OperatingState::Idle), 10);
             // Equal reaches 10 × [P(60 %), P(100 %)] ≈ 13.9…23.5 kW only; the others go lower.
-            let low = if policy == DispatchPolicy::Equal { 14_500.0 } else { 4_000.0 };
+            let low = if policy == DispatchPolicy::Equal {
+                14_500.0
+            } else {
+                4_000.0
+            };
             for target in [17_000.0, low, 23_000.0] {
                 run(&mut hub, Demand::Power(target), 4.0 * 3600.0, 10.0);
                 let got = hub.power();
-                assert!((got - target).abs() < 1e-3 * target, "{policy:?} {below:?}: {got} W vs {target} W");
+                assert!(
+                    (got - target).abs() < 1e-3 * target,
+                    "{policy:?} {below:?}: {got} W vs {target} W"
+                );
             }
         }
     }
@@ -75,14 +108,27 @@ fn a_hub_told_a_constant_power_draws_it_in_steady_state() {
 fn sequential_reaches_loads_an_equal_hub_cannot() {
     let p = Parameters::default();
     let nominal_flow = 10.0 * p.h2_coefficient * p.gain * 100.0;
-    for (policy, want) in [(DispatchPolicy::Sequential, 0.2), (DispatchPolicy::Equal, 0.0)] {
-        let mut hub = Hub::new(p, config(10, policy, BelowMinimum::Standby), Demand::Setpoint(20.0)).unwrap();
+    for (policy, want) in [
+        (DispatchPolicy::Sequential, 0.2),
+        (DispatchPolicy::Equal, 0.0),
+    ] {
+        let mut hub = Hub::new(
+            p,
+            config(10, policy, BelowMinimum::Standby),
+            Demand::Setpoint(20.0),
+        )
+        .unwrap();
         run(&mut hub, Demand::Setpoint(20.0), 3600.0, 1.0);
         let share = hub.h2_flow() / nominal_flow;
         assert!((share - want).abs() < 1e-12, "{policy:?}: {share}");
     }
     // 7 % of a 10-module hub = 70 % of one module: one module runs.
-    let mut hub = Hub::new(p, config(10, DispatchPolicy::Sequential, BelowMinimum::Off), Demand::Setpoint(7.0)).unwrap();
+    let mut hub = Hub::new(
+        p,
+        config(10, DispatchPolicy::Sequential, BelowMinimum::Off),
+        Demand::Setpoint(7.0),
+    )
+    .unwrap();
     run(&mut hub, Demand::Setpoint(7.0), 600.0, 1.0);
     assert_eq!(hub.count_in(OperatingState::Steady), 1);
     assert!((hub.h2_flow() - 0.07 * nominal_flow).abs() < 1e-9 * nominal_flow);
@@ -91,7 +137,12 @@ fn sequential_reaches_loads_an_equal_hub_cannot() {
 #[test]
 fn starts_and_running_hours_are_counted() {
     let p = Parameters::default();
-    let mut hub = Hub::new(p, config(10, DispatchPolicy::Sequential, BelowMinimum::Off), Demand::Setpoint(0.0)).unwrap();
+    let mut hub = Hub::new(
+        p,
+        config(10, DispatchPolicy::Sequential, BelowMinimum::Off),
+        Demand::Setpoint(0.0),
+    )
+    .unwrap();
     run(&mut hub, Demand::Setpoint(25.0), 3600.0, 1.0);
     let t = hub.totals();
     assert_eq!(t.starts, 3);
@@ -103,16 +154,30 @@ fn starts_and_running_hours_are_counted() {
 #[test]
 fn rotation_starts_the_module_with_fewest_hours() {
     let p = Parameters::default();
-    let mut hub = Hub::new(p, config(3, DispatchPolicy::Rotation, BelowMinimum::Off), Demand::Setpoint(0.0)).unwrap();
+    let mut hub = Hub::new(
+        p,
+        config(3, DispatchPolicy::Rotation, BelowMinimum::Off),
+        Demand::Setpoint(0.0),
+    )
+    .unwrap();
     for _ in 0..3 {
         run(&mut hub, Demand::Setpoint(30.0), 1000.0, 1.0); // one module at 90 %
         run(&mut hub, Demand::Setpoint(0.0), 1000.0, 1.0);
     }
-    let mut hours: Vec<f64> = hub.groups().iter().flat_map(|g| std::iter::repeat(g.running).take(g.count as usize)).collect();
+    let mut hours: Vec<f64> = hub
+        .groups()
+        .iter()
+        .flat_map(|g| std::iter::repeat(g.running).take(g.count as usize))
+        .collect();
     hours.sort_by(f64::total_cmp);
     assert_eq!(hours, vec![700.0, 700.0, 700.0], "each module ran once");
     // Sequential (no rotation) keeps reusing the same module.
-    let mut hub = Hub::new(p, config(3, DispatchPolicy::Sequential, BelowMinimum::Off), Demand::Setpoint(0.0)).unwrap();
+    let mut hub = Hub::new(
+        p,
+        config(3, DispatchPolicy::Sequential, BelowMinimum::Off),
+        Demand::Setpoint(0.0),
+    )
+    .unwrap();
     for _ in 0..3 {
         run(&mut hub, Demand::Setpoint(30.0), 1000.0, 1.0);
         run(&mut hub, Demand::Setpoint(0.0), 1000.0, 1.0);
@@ -123,10 +188,20 @@ fn rotation_starts_the_module_with_fewest_hours() {
 #[test]
 fn hysteresis_stops_chattering() {
     let p = Parameters::default();
-    let mut hub = Hub::new(p, config(10, DispatchPolicy::Sequential, BelowMinimum::Standby), Demand::Setpoint(25.0)).unwrap();
+    let mut hub = Hub::new(
+        p,
+        config(10, DispatchPolicy::Sequential, BelowMinimum::Standby),
+        Demand::Setpoint(25.0),
+    )
+    .unwrap();
     // 25 % ↔ 19.8 % of the hub: 250 ↔ 198 module-%, within the 5 % band of 200: no stop.
     for k in 0..100 {
-        run(&mut hub, Demand::Setpoint(if k % 2 == 0 { 19.8 } else { 25.0 }), 60.0, 1.0);
+        run(
+            &mut hub,
+            Demand::Setpoint(if k % 2 == 0 { 19.8 } else { 25.0 }),
+            60.0,
+            1.0,
+        );
     }
     assert_eq!(hub.totals().starts, 0);
     assert_eq!(hub.count_in(OperatingState::Steady), 3);
@@ -143,9 +218,18 @@ fn results_do_not_depend_on_the_step_size() {
         Demand::Power(0.0),
         Demand::Power(12_000.0),
     ];
-    for policy in [DispatchPolicy::Sequential, DispatchPolicy::Rotation, DispatchPolicy::Equal] {
+    for policy in [
+        DispatchPolicy::Sequential,
+        DispatchPolicy::Rotation,
+        DispatchPolicy::Equal,
+    ] {
         let sim = |h: f64| {
-            let mut hub = Hub::new(p, config(10, policy, BelowMinimum::Standby), Demand::Power(3_000.0)).unwrap();
+            let mut hub = Hub::new(
+                p,
+                config(10, policy, BelowMinimum::Standby),
+                Demand::Power(3_000.0),
+            )
+            .unwrap();
             let mut out = Vec::new();
             for d in schedule {
                 run(&mut hub, d, 900.0, h);
@@ -157,8 +241,16 @@ fn results_do_not_depend_on_the_step_size() {
         for h in [0.5, 1.0, 7.5] {
             for (i, (a, b)) in sim(h).iter().zip(&reference).enumerate() {
                 let c = p.h2_coefficient;
-                assert!((a.1 - b.1).abs() < 1e-9 * c, "{policy:?} h={h} piece {i}: flow {} vs {}", a.1, b.1);
-                assert!((a.2.energy - b.2.energy).abs() < 1e-9 * b.2.energy.max(1.0), "{policy:?} h={h} piece {i}");
+                assert!(
+                    (a.1 - b.1).abs() < 1e-9 * c,
+                    "{policy:?} h={h} piece {i}: flow {} vs {}",
+                    a.1,
+                    b.1
+                );
+                assert!(
+                    (a.2.energy - b.2.energy).abs() < 1e-9 * b.2.energy.max(1.0),
+                    "{policy:?} h={h} piece {i}"
+                );
                 assert_eq!(a.2.starts, b.2.starts);
                 assert!((a.2.running - b.2.running).abs() < 1e-6);
             }
@@ -170,25 +262,64 @@ fn results_do_not_depend_on_the_step_size() {
 fn individual_parameter_sets_share_a_power_reference() {
     let base = Parameters::default();
     let sets = crate::spread::spread_parameters(&base, 50, 0.03, 7);
-    let mut hub = Hub::with_parameter_sets(sets, config(50, DispatchPolicy::Equal, BelowMinimum::Off), Demand::Power(0.0)).unwrap();
+    let mut hub = Hub::with_parameter_sets(
+        sets,
+        config(50, DispatchPolicy::Equal, BelowMinimum::Off),
+        Demand::Power(0.0),
+    )
+    .unwrap();
     // 1800 W per module: inside every spread module's window, so each inverts its own curve.
     run(&mut hub, Demand::Power(90_000.0), 4.0 * 3600.0, 5.0);
-    assert!((hub.power() - 90_000.0).abs() < 1e-3 * 90_000.0, "{}", hub.power());
+    assert!(
+        (hub.power() - 90_000.0).abs() < 1e-3 * 90_000.0,
+        "{}",
+        hub.power()
+    );
     assert_eq!(hub.groups().len(), 50);
 }
 
 #[test]
 fn bad_combinations_are_refused_with_the_value() {
     let p = Parameters::default();
-    let e = Hub::new(p, config(4, DispatchPolicy::Sequential, BelowMinimum::Minimum), Demand::Setpoint(50.0)).unwrap_err();
-    assert!(e.to_string().contains("belowMinimum = 0") && e.to_string().contains("dispatch = 2"), "{e}");
-    let e = Hub::new(p, config(0, DispatchPolicy::Equal, BelowMinimum::Minimum), Demand::Setpoint(50.0)).unwrap_err();
+    let e = Hub::new(
+        p,
+        config(4, DispatchPolicy::Sequential, BelowMinimum::Minimum),
+        Demand::Setpoint(50.0),
+    )
+    .unwrap_err();
+    assert!(
+        e.to_string().contains("belowMinimum = 0") && e.to_string().contains("dispatch = 2"),
+        "{e}"
+    );
+    let e = Hub::new(
+        p,
+        config(0, DispatchPolicy::Equal, BelowMinimum::Minimum),
+        Demand::Setpoint(50.0),
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("nModules = 0"), "{e}");
-    let e = Hub::new(p, HubConfig { hysteresis: -1.0, ..Default::default() }, Demand::Setpoint(50.0)).unwrap_err();
+    let e = Hub::new(
+        p,
+        HubConfig {
+            hysteresis: -1.0,
+            ..Default::default()
+        },
+        Demand::Setpoint(50.0),
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("hysteresis = -1"), "{e}");
-    let e = Hub::with_parameter_sets(vec![p; 3], config(4, DispatchPolicy::Equal, BelowMinimum::Off), Demand::Setpoint(50.0)).unwrap_err();
+    let e = Hub::with_parameter_sets(
+        vec![p; 3],
+        config(4, DispatchPolicy::Equal, BelowMinimum::Off),
+        Demand::Setpoint(50.0),
+    )
+    .unwrap_err();
     assert!(e.to_string().contains("nModules = 4"), "{e}");
-    let flat = Parameters { voltage_intercept: 0.0, ohmic_resistance: 0.0, ..p };
+    let flat = Parameters {
+        voltage_intercept: 0.0,
+        ohmic_resistance: 0.0,
+        ..p
+    };
     assert!(Hub::new(flat, HubConfig::default(), Demand::Power(1e3)).is_err());
     let mut hub = Hub::new(p, HubConfig::default(), Demand::Setpoint(70.0)).unwrap();
     let before = hub.totals().clone();
@@ -208,9 +339,19 @@ fn running_modules_carry_the_demand_while_others_start() {
     assert_eq!(hub.count_in(OperatingState::Steady), 3);
     // Five modules' worth: two more start (10 000 s), the three running go to their maximum.
     run(&mut hub, Demand::Power(4.6 * module_max), 3000.0, 1.0);
-    assert_eq!((hub.count_in(OperatingState::Steady), hub.count_in(OperatingState::Curve)), (3, 2));
+    assert_eq!(
+        (
+            hub.count_in(OperatingState::Steady),
+            hub.count_in(OperatingState::Curve)
+        ),
+        (3, 2)
+    );
     let expected = 3.0 * module_max + 2.0 * cfg.operation.start_power;
-    assert!((hub.power() - expected).abs() <= 1e-6 * expected, "{} vs {expected}", hub.power());
+    assert!(
+        (hub.power() - expected).abs() <= 1e-6 * expected,
+        "{} vs {expected}",
+        hub.power()
+    );
     // Once the starts complete (exactly at 10 000 s), all five share the demand.
     run(&mut hub, Demand::Power(4.6 * module_max), 7000.0, 7.0);
     assert_eq!(hub.count_in(OperatingState::Steady), 5);
@@ -237,9 +378,24 @@ fn assert_lanes_match_scalar(hub: Hub, demand: impl Fn(usize) -> Demand, seconds
         assert_eq!(lanes.snapshot(), scalar.snapshot(), "t = {t}");
         assert_eq!(lanes.readings(), scalar.readings(), "t = {t}");
         let (a, b) = (lanes.totals(), scalar.totals());
-        assert_eq!((a.energy.to_bits(), a.h2_produced.to_bits(), a.running.to_bits()), (b.energy.to_bits(), b.h2_produced.to_bits(), b.running.to_bits()), "t = {t}");
+        assert_eq!(
+            (
+                a.energy.to_bits(),
+                a.h2_produced.to_bits(),
+                a.running.to_bits()
+            ),
+            (
+                b.energy.to_bits(),
+                b.h2_produced.to_bits(),
+                b.running.to_bits()
+            ),
+            "t = {t}"
+        );
     }
-    assert!(lanes.lanes.is_some() && scalar.lanes.is_none(), "the lanes were not used");
+    assert!(
+        lanes.lanes.is_some() && scalar.lanes.is_none(),
+        "the lanes were not used"
+    );
 }
 
 #[test]
@@ -247,11 +403,25 @@ fn lanes_step_individual_modules_as_the_scalar_path_does_bit_for_bit() {
     let base = Parameters::default();
     let n = 37; // not a multiple of four lanes or of a chunk
     let rated = n as f64 * crate::dispatch::power_at_setpoint(&base, 100.0);
-    for (policy, below) in [(DispatchPolicy::Equal, BelowMinimum::Standby), (DispatchPolicy::Sequential, BelowMinimum::Off), (DispatchPolicy::Rotation, BelowMinimum::Standby)] {
+    for (policy, below) in [
+        (DispatchPolicy::Equal, BelowMinimum::Standby),
+        (DispatchPolicy::Sequential, BelowMinimum::Off),
+        (DispatchPolicy::Rotation, BelowMinimum::Standby),
+    ] {
         let sets = crate::spread::spread_parameters(&base, n, 0.03, 11);
-        let hub = Hub::with_parameter_sets(sets.clone(), config(n as u32, policy, below), Demand::Power(0.6 * rated)).unwrap();
+        let hub = Hub::with_parameter_sets(
+            sets.clone(),
+            config(n as u32, policy, below),
+            Demand::Power(0.6 * rated),
+        )
+        .unwrap();
         assert_lanes_match_scalar(hub, |t| Demand::Power(gusty(t) * rated), 1500, 1.0);
-        let hub = Hub::with_parameter_sets(sets, config(n as u32, policy, below), Demand::Setpoint(80.0)).unwrap();
+        let hub = Hub::with_parameter_sets(
+            sets,
+            config(n as u32, policy, below),
+            Demand::Setpoint(80.0),
+        )
+        .unwrap();
         assert_lanes_match_scalar(hub, |t| Demand::Setpoint(100.0 * gusty(t)), 700, 2.5);
     }
 }
@@ -263,7 +433,12 @@ fn thousands_of_modules_step_on_every_core_with_the_same_bits() {
     let n = PARALLEL_FROM + 321;
     let rated = n as f64 * crate::dispatch::power_at_setpoint(&base, 100.0);
     let sets = crate::spread::spread_parameters(&base, n, 0.03, 5);
-    let hub = Hub::with_parameter_sets(sets, config(n as u32, DispatchPolicy::Equal, BelowMinimum::Standby), Demand::Power(0.7 * rated)).unwrap();
+    let hub = Hub::with_parameter_sets(
+        sets,
+        config(n as u32, DispatchPolicy::Equal, BelowMinimum::Standby),
+        Demand::Power(0.7 * rated),
+    )
+    .unwrap();
     assert_lanes_match_scalar(hub, |t| Demand::Power(gusty(40 * t) * rated), 60, 1.0);
 }
 
@@ -272,21 +447,46 @@ fn kept_survey_and_readings_are_the_ones_summed_afresh() {
     let base = Parameters::default();
     let rated = 40.0 * crate::dispatch::power_at_setpoint(&base, 100.0);
     let sets = crate::spread::spread_parameters(&base, 40, 0.03, 2);
-    let mut hub = Hub::with_parameter_sets(sets, config(40, DispatchPolicy::Sequential, BelowMinimum::Standby), Demand::Power(0.5 * rated)).unwrap();
+    let mut hub = Hub::with_parameter_sets(
+        sets,
+        config(40, DispatchPolicy::Sequential, BelowMinimum::Standby),
+        Demand::Power(0.5 * rated),
+    )
+    .unwrap();
     for t in 0..900 {
         hub.step(Demand::Power(gusty(t) * rated), 1.0).unwrap();
-        let kept = (hub.surveyed.expect("a step keeps its survey"), hub.readings());
+        let kept = (
+            hub.surveyed.expect("a step keeps its survey"),
+            hub.readings(),
+        );
         let mut fresh = hub.clone();
         (fresh.surveyed, fresh.read) = (None, None);
         let survey = fresh.survey();
-        assert_eq!((kept.0.carrying, kept.0.others.to_bits(), kept.0.next_event.map(f64::to_bits)), (survey.carrying, survey.others.to_bits(), survey.next_event.map(f64::to_bits)), "t = {t}");
+        assert_eq!(
+            (
+                kept.0.carrying,
+                kept.0.others.to_bits(),
+                kept.0.next_event.map(f64::to_bits)
+            ),
+            (
+                survey.carrying,
+                survey.others.to_bits(),
+                survey.next_event.map(f64::to_bits)
+            ),
+            "t = {t}"
+        );
         assert_eq!(kept.1, fresh.readings(), "t = {t}");
     }
 }
 
 #[test]
 fn a_snapshot_whose_dispatch_target_disagrees_with_its_groups_is_refused() {
-    let mut hub = Hub::new(Parameters::default(), config(10, DispatchPolicy::Sequential, BelowMinimum::Standby), Demand::Setpoint(50.0)).unwrap();
+    let mut hub = Hub::new(
+        Parameters::default(),
+        config(10, DispatchPolicy::Sequential, BelowMinimum::Standby),
+        Demand::Setpoint(50.0),
+    )
+    .unwrap();
     let mut snapshot = hub.snapshot();
     snapshot.running_target += 1;
     let before = hub.snapshot();
@@ -299,7 +499,12 @@ fn a_snapshot_whose_dispatch_target_disagrees_with_its_groups_is_refused() {
 /// u64::MAX; the next start must not overflow (a panic in checked builds, a wrap otherwise).
 #[test]
 fn start_counters_of_a_restored_state_saturate() {
-    let mut hub = Hub::new(Parameters::default(), config(10, DispatchPolicy::Rotation, BelowMinimum::Standby), Demand::Setpoint(30.0)).unwrap();
+    let mut hub = Hub::new(
+        Parameters::default(),
+        config(10, DispatchPolicy::Rotation, BelowMinimum::Standby),
+        Demand::Setpoint(30.0),
+    )
+    .unwrap();
     run(&mut hub, Demand::Setpoint(30.0), 100.0, 10.0);
     let mut snapshot = hub.snapshot();
     snapshot.totals.starts = u64::MAX - 1;
@@ -309,5 +514,9 @@ fn start_counters_of_a_restored_state_saturate() {
     hub.restore(snapshot).unwrap();
     run(&mut hub, Demand::Setpoint(100.0), 100.0, 10.0);
     assert_eq!(hub.totals().starts, u64::MAX);
-    assert!(hub.snapshot().groups.iter().all(|g| g.starts >= u64::MAX - 1));
+    assert!(hub
+        .snapshot()
+        .groups
+        .iter()
+        .all(|g| g.starts >= u64::MAX - 1));
 }
