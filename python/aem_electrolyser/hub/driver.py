@@ -6,14 +6,17 @@ mosaik and HELICS tests).
     hub.step(1.0, powerReference=46e6)        # hold the reference over [t, t + 1 s]
     hub.get("hubPower", "hubEnergy")
 
-Parameters and inputs are set by name with the setter of their FMI type (Real, Integer or
+A call the FMU refuses raises hub.messages.FmuError with the FMU's own message (its log is kept
+in hub.messages.MESSAGES, not printed). Parameters and inputs are set by name with the setter of their FMI type (Real, Integer or
 Enumeration, Boolean), so the FMU's variable names are the only interface.
 """
 import shutil
 
 from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
+from aem_electrolyser.hub.messages import callbacks, fmu_words
 from aem_electrolyser.locate import fmu_path as locate_fmu
 
 
@@ -28,13 +31,17 @@ class HubFMU:
         self._unzipdir = extract(str(fmu_path))
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=self._unzipdir,
                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance_name)
-        self.fmu.instantiate()
+        self.fmu.instantiate(loggingOn=False, callbacks=callbacks())
         self.fmu.setupExperiment(startTime=start_time)
         self.time = start_time
         self.initialized = False
         self.set(**parameters)
 
     def set(self, **values):
+        with fmu_words(f"the values {values}"):
+            self._set(values)
+
+    def _set(self, values):
         for name, value in values.items():
             v = self._vars[name]
             if v.type == "Real":
@@ -58,19 +65,24 @@ class HubFMU:
     def initialize(self, **inputs):
         """Set the inputs at the start time; the FMU starts in steady state for them."""
         self.set(**inputs)
-        self.fmu.enterInitializationMode()
-        self.fmu.exitInitializationMode()
+        with fmu_words("the initialisation"):
+            self.fmu.enterInitializationMode()
+            self.fmu.exitInitializationMode()
         self.initialized = True
 
     def step(self, h, **inputs):
         """Set the inputs (held over the step), then advance the FMU by h seconds."""
         self.set(**inputs)
-        self.fmu.doStep(currentCommunicationPoint=self.time, communicationStepSize=h)
+        with fmu_words(f"the step at t = {self.time:g} s"):
+            self.fmu.doStep(currentCommunicationPoint=self.time, communicationStepSize=h)
         self.time += h
 
     def close(self):
         if self.initialized:
-            self.fmu.terminate()
+            try:
+                self.fmu.terminate()
+            except FMICallException:
+                pass  # an instance in error ends with freeInstance alone; its refusal was raised
         self.fmu.freeInstance()
         shutil.rmtree(self._unzipdir, ignore_errors=True)
 

@@ -14,11 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from fmpy import extract, read_model_description
-from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
-from fmpy.logging import addLoggerProxy
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave
 
+from aem_electrolyser.hub.messages import MESSAGES, callbacks, fmu_words, refusal
 from aem_electrolyser.locate import fmu_path as locate_fmu
 
+__all__ = ["Hub", "HubRunner", "MESSAGES"]
 
 
 @dataclass(frozen=True)
@@ -36,26 +38,6 @@ class Hub:
         policy = {1: "equal", 2: "sequential", 3: "rotation"}[self.dispatch]
         return (f"{self.n_modules} modules, {policy} dispatch, baseline {100 * self.baseline:.0f} % of rated power, "
                 f"compensation {'on' if self.compensation else 'off'}")
-
-
-#: The FMU's log messages of this process, by text (fmpy's native proxy formats the variadic
-#: call and forwards it to one Python callback per process).
-MESSAGES = {}
-
-
-def _log(env, instance_name, status, category, message):
-    text = message.decode(errors="replace")
-    MESSAGES[text] = MESSAGES.get(text, 0) + 1
-
-
-_LOGGER = fmi2CallbackLoggerTYPE(_log)
-
-
-def _callbacks():
-    callbacks = fmi2CallbackFunctions()
-    callbacks.logger = _LOGGER
-    addLoggerProxy(ctypes.byref(callbacks))
-    return callbacks
 
 
 class HubRunner:
@@ -90,27 +72,33 @@ class HubRunner:
         t = np.asarray(t, float)
         fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
                         modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName="prequalification")
-        callbacks = _callbacks()
-        fmu.instantiate(loggingOn=False, callbacks=callbacks)
+        fmu.instantiate(loggingOn=False, callbacks=callbacks())
         try:
-            fmu.setupExperiment(startTime=float(t[0]))
-            h = self.hub
-            fmu.setInteger([self.vars[n].valueReference for n in ("nModules", "dispatch", "belowMinimum")],
-                           [h.n_modules, h.dispatch, h.below_minimum])
-            fmu.setBoolean([self.vars["powerInput"].valueReference, self.vars["reserveCompensation"].valueReference],
-                           [True, h.compensation])
-            reals = dict(parameters or {})
-            reals["powerReference"] = self.baseline if power_reference is None else float(power_reference[0])
-            if frequency is not None:
-                reals["frequency"] = float(frequency[0])
-            names = list(reals)
-            fmu.setReal([self.vars[n].valueReference for n in names], [float(reals[n]) for n in names])
-            fmu.enterInitializationMode()
-            fmu.exitInitializationMode()
-            return self._steps(fmu, t, frequency, power_reference)
+            with fmu_words(f"the hub ({self.hub.describe()})"):
+                return self._run(fmu, t, frequency, power_reference, parameters)
         finally:
-            fmu.terminate()
+            try:
+                fmu.terminate()
+            except FMICallException:
+                pass  # an instance in error ends with freeInstance alone; the first refusal was raised
             fmu.freeInstance()
+
+    def _run(self, fmu, t, frequency, power_reference, parameters):
+        fmu.setupExperiment(startTime=float(t[0]))
+        h = self.hub
+        fmu.setInteger([self.vars[n].valueReference for n in ("nModules", "dispatch", "belowMinimum")],
+                       [h.n_modules, h.dispatch, h.below_minimum])
+        fmu.setBoolean([self.vars["powerInput"].valueReference, self.vars["reserveCompensation"].valueReference],
+                       [True, h.compensation])
+        reals = dict(parameters or {})
+        reals["powerReference"] = self.baseline if power_reference is None else float(power_reference[0])
+        if frequency is not None:
+            reals["frequency"] = float(frequency[0])
+        names = list(reals)
+        fmu.setReal([self.vars[n].valueReference for n in names], [float(reals[n]) for n in names])
+        fmu.enterInitializationMode()
+        fmu.exitInitializationMode()
+        return self._steps(fmu, t, frequency, power_reference)
 
     def _steps(self, fmu, t, frequency, power_reference):
         n = len(t)
@@ -133,7 +121,7 @@ class HubRunner:
             if k + 1 < n:
                 status |= do_step(component, t[k], t[k + 1] - t[k], 1)
             if status > 1:  # fmi2Error or worse (warnings are logged, not fatal)
-                raise RuntimeError(f"the FMU refused the step at t = {t[k]} s (status {status})")
+                raise refusal(f"the step at t = {t[k]} s (status {status})")
         if not all(math.isfinite(x) for x in (power[-1], request[-1])):
             raise RuntimeError("the FMU returned a non-finite power")
         return power, request
