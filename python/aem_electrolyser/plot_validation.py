@@ -8,13 +8,12 @@ DC power and hydrogen flow, measured (grey) and the identified model (colour). R
 settle time after a start-up, which the RMSE leaves out, are shaded. The PNG's path is checked
 for writing before the CSV is read.
 """
-import argparse
 import csv
 from pathlib import Path
 
 import numpy as np
 
-from aem_electrolyser.cli import quiet_on_closed_stdout, writable
+from aem_electrolyser import cli
 from aem_electrolyser.extras import needs
 
 with needs("plots", __name__):
@@ -38,11 +37,13 @@ def load(path: Path):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("csv", type=Path)
-    parser.add_argument("png", type=Path)
+    parser = cli.CommandLine(description=__doc__.splitlines()[0], quiet=False)
+    parser.add_argument("csv", type=Path, help="the CSV of `aem-identify validate --csv`")
+    parser.add_argument("png", type=Path, help="the figure to write")
     args = parser.parse_args(argv)
-    writable(args.png)
+    if not args.csv.is_file():
+        parser.error(f"csv: {args.csv} does not exist")
+    cli.writable(args.png)
     d = load(args.csv)
     hours = (d["time"] - d["time"][0]) / 3600.0
     fig, axes = plt.subplots(len(PANELS), 1, figsize=(11, 9), sharex=True)
@@ -66,4 +67,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    cli.run_command(main)

@@ -29,10 +29,10 @@ STIFFNESS = DROOP * MVA_LEFT / 50.0  # MW/Hz
 
 @pytest.fixture(scope="module")
 def trip(fmu_path, tmp_path_factory):
-    out = tmp_path_factory.mktemp("generator_trip") / "generator_trip"
+    out = tmp_path_factory.mktemp("out") / "generator_trip"
     start = time.perf_counter()
     cases, table = generator_trip.run(fmu_path, duration=DURATION, trip_time=TRIP, capacity=CAPACITY, load=LOAD,
-                                      exchange=EXCHANGE, out=out, verbose=False)
+                                      exchange=EXCHANGE, out=out.parent, verbose=False)
     print(f"\ngenerator_trip.run, 3 x {DURATION:g} s: {time.perf_counter() - start:.1f} s")
     return out, cases, table
 

@@ -14,8 +14,8 @@ pytestmark = pytest.mark.filterwarnings("ignore:numpy.core is deprecated:Depreca
 
 @pytest.fixture(scope="module")
 def wind_hub_run(fmu_path, tmp_path_factory):
-    out = tmp_path_factory.mktemp("wind_hub") / "wind_hub"
-    return out, wind_hub.run(fmu_path, duration=900.0, seed=2, out=out, hub_factory=HUB, verbose=False)
+    out = tmp_path_factory.mktemp("wind_hub")
+    return out / "wind_hub", wind_hub.run(fmu_path, duration=900.0, seed=2, out=out, hub_factory=HUB, verbose=False)
 
 
 def test_wind_hub_energy_balance(wind_hub_run):

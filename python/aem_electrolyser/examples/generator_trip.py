@@ -2,7 +2,7 @@
 """Example 5: a generator trips in TOPS's two-area system; the hub offers FCR-D up.
 
     python -m aem_electrolyser.examples.generator_trip [--duration 60] [--trip-time 2] [--capacity 12] [--load 0.8]
-                                      [--modules 25000] [--band 10] [--out out/generator_trip]
+                                      [--modules 25000] [--band 10] [--out out]
 
 Power system: the one of aem_electrolyser.examples.grid_cosim (its `power_system`: TOPS's Kundur two-area
 system tops.ps_models.k2a, four 900 MVA generators with TGOV1 governors of 5 % droop, SEXS
@@ -53,10 +53,9 @@ default 10, of its final value, the mean of the last second) and the hub's power
 after the trip and at the end. 12 MW against 1261 MW/Hz can lift the frequency by a few mHz
 at most, and the hub's 2 s response comes after the first dip: the table shows how little,
 and `--modules 250000 --capacity 120` a hub ten times larger (469 MW of L2's 1767 MW). Writes
-<out>.csv (every TOPS step), <out>_table.csv and <out>.png before it prints the table; the
+<out>/generator_trip.csv (every TOPS step), generator_trip_table.csv and .png before the table; the
 FMU's and TOPS's messages go to stderr.
 """
-import argparse
 import contextlib
 import csv
 import sys
@@ -68,7 +67,7 @@ from aem_electrolyser.examples.grid_cosim import N_MODULES, power_system as grid
 from aem_electrolyser.hub.driver import HubFMU
 from aem_electrolyser.examples.wind_hub import module_rating
 from aem_electrolyser.extras import require
-from aem_electrolyser.cli import add_fmu_option, resolve_fmu, quiet_on_closed_stdout, writable
+from aem_electrolyser import cli
 
 F_N = 50.0            # Hz
 TRIP_GEN = "G1"       # split into two parallel units, one of which trips
@@ -141,8 +140,9 @@ def hub_rating(fmu, n_modules, hub_factory=HubFMU):
 
 
 def run_case(fmu, duration, p_ref, capacity, compensation, trip_time=2.0, exchange=0.1, dt=5e-3,
-             n_modules=N_MODULES, hub_factory=HubFMU, name="hub"):
-    """One co-simulation; returns a dict of arrays sampled at every TOPS step (after the step)."""
+             n_modules=N_MODULES, hub_factory=HubFMU, name="hub", bar=None):
+    """One co-simulation; returns a dict of arrays sampled at every TOPS step (after the step);
+    `bar` (tqdm) advances by the simulated seconds."""
     import tops.dynamic as dps
     import tops.solvers as dps_sol
 
@@ -169,6 +169,8 @@ def run_case(fmu, duration, p_ref, capacity, compensation, trip_time=2.0, exchan
                 hub.set(frequency=f_hub)
                 request = hub.get("reserveRequest")
                 hub.step(exchange, powerReference=p_ref)
+                if bar is not None:
+                    bar.update(exchange)
             if tripped_mw is None and sol.t >= trip_time - dt / 2:
                 tripped_mw = trip_one_unit(ps, sol.x, sol.v)
                 sol.v[:] = ps.solve_algebraic(sol.t, sol.x)        # the network right after the trip
@@ -290,16 +292,20 @@ def print_table(table, band):
 
 
 def run(fmu=None, duration=60.0, trip_time=2.0, capacity=12e6, load=0.8, band=0.010, exchange=0.1,
-        n_modules=N_MODULES, out=None, hub_factory=HubFMU, verbose=True):
-    with contextlib.redirect_stdout(sys.stderr):  # the FMU's and TOPS's messages are no report
+        n_modules=N_MODULES, out=None, hub_factory=HubFMU, verbose=True, quiet=True):
+    """The runs of RUNS; writes generator_trip.csv, generator_trip_table.csv and .png into the
+    folder `out` when given; a progress bar of simulated seconds unless quiet."""
+    with contextlib.redirect_stdout(sys.stderr), \
+            cli.progress(total=len(RUNS) * duration, unit="s", desc="generator_trip", quiet=quiet) as bar:
+        # TOPS's messages are no report
         p_ref = load * hub_rating(fmu, n_modules, hub_factory)[1]
         cases = {name: run_case(fmu, duration, p_ref, capacity if offers else 0.0, compensation, trip_time,
                                 exchange, n_modules=n_modules, hub_factory=hub_factory,
-                                name="hub_" + name.replace(" ", "_").replace(",", ""))
+                                name="hub_" + name.replace(" ", "_").replace(",", ""), bar=bar)
                  for name, (offers, compensation) in RUNS.items()}
     table = {name: metrics(o, band) for name, o in cases.items()}
     if out is not None:
-        out = Path(out)
+        out = Path(out) / "generator_trip"
         out.parent.mkdir(parents=True, exist_ok=True)
         write_csvs(out, cases, table)
         plot(out.with_suffix(".png"), cases, n_modules)
@@ -314,28 +320,35 @@ def run(fmu=None, duration=60.0, trip_time=2.0, capacity=12e6, load=0.8, band=0.
     return cases, table
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_fmu_option(parser)
-    parser.add_argument("--duration", type=float, default=60.0, help="seconds (default 60)")
-    parser.add_argument("--trip-time", type=float, default=2.0, help="seconds (default 2)")
-    parser.add_argument("--capacity", type=float, default=12.0, help="FCR-D up capacity [MW] (default 12)")
-    parser.add_argument("--load", type=float, default=0.8, help="hub power reference / rated power (default 0.8)")
-    parser.add_argument("--modules", type=int, default=N_MODULES, help=f"modules in the hub (default {N_MODULES})")
-    parser.add_argument("--band", type=float, default=10.0, help="settling band [mHz] (default 10)")
-    parser.add_argument("--exchange", type=float, default=0.1, help="FMU communication step [s] (default 0.1)")
-    parser.add_argument("--out", type=Path, default=Path("out") / "generator_trip")
-    args = parser.parse_args()
-    require("grid", "python -m aem_electrolyser.examples.generator_trip")
-    args.fmu = resolve_fmu(parser, args)
+def main(argv=None):
+    parser = cli.CommandLine(description=__doc__)
+    cli.add_fmu_option(parser)
+    parser.add_argument("--duration", type=cli.positive(float), default=60.0, help="simulated seconds [default: 60]")
+    parser.add_argument("--trip-time", type=cli.non_negative(float), default=2.0, help="seconds [default: 2]")
+    parser.add_argument("--capacity", type=cli.non_negative(float), default=12.0,
+                        help="FCR-D up capacity [MW] [default: 12]")
+    parser.add_argument("--load", type=cli.positive(float), default=0.8,
+                        help="hub power reference / rated power, in (0, 1] [default: 0.8]")
+    parser.add_argument("--modules", type=cli.positive(int), default=N_MODULES,
+                        help=f"modules in the hub [default: {N_MODULES}]")
+    parser.add_argument("--band", type=cli.positive(float), default=10.0, help="settling band [mHz] [default: 10]")
+    parser.add_argument("--exchange", type=cli.positive(float), default=0.1,
+                        help="FMU communication step [s], a multiple of TOPS's 5 ms [default: 0.1]")
+    cli.add_out_option(parser, "out", "generator_trip.csv, generator_trip_table.csv and generator_trip.png")
+    args = parser.parse_args(argv)
     if not args.trip_time + max(FIRST_DIP_WINDOW, T_COMPARE) < args.duration:
-        parser.error(f"--duration must exceed --trip-time + {max(FIRST_DIP_WINDOW, T_COMPARE):g} s")
-    for path in (args.out.with_suffix(".csv"), args.out.parent / f"{args.out.name}_table.csv",
-                 args.out.with_suffix(".png")):
-        writable(path)
+        parser.error(f"--duration: {args.duration:g} s; it must exceed --trip-time + "
+                     f"{max(FIRST_DIP_WINDOW, T_COMPARE):g} s")
+    if args.load > 1:
+        parser.error(f"--load: {args.load:g} is above 1 (the hub's rated power)")
+    if abs(args.exchange / 5e-3 - round(args.exchange / 5e-3)) > 1e-9:
+        parser.error(f"--exchange: {args.exchange:g} s is not a multiple of TOPS's 5 ms step")
+    require("grid", parser.prog)
+    args.fmu = cli.resolve_fmu(parser, args)
+    cli.writable_folder(args.out)
     run(args.fmu, args.duration, args.trip_time, args.capacity * 1e6, args.load, args.band * 1e-3, args.exchange,
-        args.modules, args.out)
+        args.modules, args.out, verbose=not args.quiet, quiet=args.quiet)
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    cli.run_command(main)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Example 4: the electrolyser hub FMU co-simulated with the power-system simulator TOPS.
 
-    python -m aem_electrolyser.examples.grid_cosim [--duration 60] [--gust-start 10] [--exchange 0.1] [--out out/grid_cosim]
+    python -m aem_electrolyser.examples.grid_cosim [--duration 60] [--gust-start 10] [--exchange 0.1] [--out out]
 
 Power system: TOPS's Kundur two-area system (tops.ps_models.k2a: four 900 MVA generators with
 governors, AVRs and PSSs, 2.7 GW of load) with one added 230 kV bus B12, 20 km of line from
@@ -17,10 +17,9 @@ hub's power at the start of the interval (held until the next exchange). Initial
 power, its hubPower sets the hub VSC's P_setp before TOPS's load flow, so the system starts
 in equilibrium (no start transient). Two runs: steady 10 m/s wind, and the same with an IEC
 61400-1 extreme operating gust (aem_electrolyser.wind.farm) on every turbine at once. Frequency
-and voltage at B12 (a PLL at the bus) are plotted; <out>.csv and <out>.png are written before
-the summary is printed, and the FMU's messages go to stderr.
+and voltage at B12 (a PLL at the bus) are plotted; <out>/grid_cosim.csv and grid_cosim.png are
+written before the summary is printed, and TOPS's messages go to stderr.
 """
-import argparse
 import contextlib
 import csv
 import sys
@@ -31,7 +30,7 @@ import numpy as np
 from aem_electrolyser.hub.driver import HubFMU
 from aem_electrolyser.wind.farm import N_TURBINES, Site, Turbine, extreme_operating_gust, power_curve
 from aem_electrolyser.extras import require
-from aem_electrolyser.cli import add_fmu_option, resolve_fmu, quiet_on_closed_stdout, writable
+from aem_electrolyser import cli
 
 N_MODULES = 25_000
 BUS, BUS_KV = "B12", 230.0
@@ -61,8 +60,9 @@ def wind_power(t, gust_start, site=Site(), turbine=Turbine()):
     return N_TURBINES * float(power_curve(v, turbine))
 
 
-def run_case(fmu, duration, gust_start, exchange=0.1, dt=5e-3, hub_factory=HubFMU, dispatch=(1, 0)):
-    """One co-simulation; returns a dict of arrays sampled at every TOPS step."""
+def run_case(fmu, duration, gust_start, exchange=0.1, dt=5e-3, hub_factory=HubFMU, dispatch=(1, 0), bar=None):
+    """One co-simulation; returns a dict of arrays sampled at every TOPS step. `bar` (tqdm)
+    advances by the simulated seconds."""
     import tops.dynamic as dps
     import tops.solvers as dps_sol
 
@@ -88,6 +88,8 @@ def run_case(fmu, duration, gust_start, exchange=0.1, dt=5e-3, hub_factory=HubFM
                 p_hub = hub.get("hubPower")             # the hub's power at t, held over the exchange
                 vsc.set_input("P_setp", -p_hub / 1e6, 1)
                 hub.step(exchange, powerReference=p_wind)
+                if bar is not None:
+                    bar.update(exchange)
             sol.step()
             k += 1
             x, v = sol.y, sol.v
@@ -150,14 +152,18 @@ def plot(path, cases):
 
 
 def run(fmu=None, duration=60.0, gust_start=10.0, exchange=0.1, out=None, hub_factory=HubFMU,
-        verbose=True):
-    with contextlib.redirect_stdout(sys.stderr):  # the FMU's and TOPS's messages are no report
+        verbose=True, quiet=True):
+    """Both cases; writes <out>/grid_cosim.csv and .png when the folder `out` is given; a progress
+    bar of simulated seconds unless quiet."""
+    with contextlib.redirect_stdout(sys.stderr), \
+            cli.progress(total=2 * duration, unit="s", desc="grid_cosim", quiet=quiet) as bar:
+        # TOPS's messages are no report
         cases = {
-            "steady wind": run_case(fmu, duration, None, exchange, hub_factory=hub_factory),
-            "gust": run_case(fmu, duration, gust_start, exchange, hub_factory=hub_factory),
+            "steady wind": run_case(fmu, duration, None, exchange, hub_factory=hub_factory, bar=bar),
+            "gust": run_case(fmu, duration, gust_start, exchange, hub_factory=hub_factory, bar=bar),
         }
     if out is not None:
-        out = Path(out)
+        out = Path(out) / "grid_cosim"
         out.parent.mkdir(parents=True, exist_ok=True)
         write_csv(out.with_suffix(".csv"), cases)
         plot(out.with_suffix(".png"), cases)
@@ -172,20 +178,25 @@ def run(fmu=None, duration=60.0, gust_start=10.0, exchange=0.1, out=None, hub_fa
     return cases
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_fmu_option(parser)
-    parser.add_argument("--duration", type=float, default=60.0, help="seconds")
-    parser.add_argument("--gust-start", type=float, default=10.0, help="seconds")
-    parser.add_argument("--exchange", type=float, default=0.1, help="FMU communication step [s]")
-    parser.add_argument("--out", type=Path, default=Path("out") / "grid_cosim")
-    args = parser.parse_args()
-    require("grid", "python -m aem_electrolyser.examples.grid_cosim")
-    args.fmu = resolve_fmu(parser, args)
-    for suffix in (".csv", ".png"):
-        writable(args.out.with_suffix(suffix))
-    run(args.fmu, args.duration, args.gust_start, args.exchange, args.out)
+def main(argv=None):
+    parser = cli.CommandLine(description=__doc__)
+    cli.add_fmu_option(parser)
+    parser.add_argument("--duration", type=cli.positive(float), default=60.0, help="simulated seconds [default: 60]")
+    parser.add_argument("--gust-start", type=cli.non_negative(float), default=10.0,
+                        help="start of the gust [s], before the end [default: 10]")
+    parser.add_argument("--exchange", type=cli.positive(float), default=0.1,
+                        help="FMU communication step [s], a multiple of TOPS's 5 ms [default: 0.1]")
+    cli.add_out_option(parser, "out", "grid_cosim.csv and grid_cosim.png")
+    args = parser.parse_args(argv)
+    if args.gust_start >= args.duration:
+        parser.error(f"--gust-start: {args.gust_start:g} s is not before the end (--duration {args.duration:g} s)")
+    if abs(args.exchange / 5e-3 - round(args.exchange / 5e-3)) > 1e-9 or args.exchange > args.duration:
+        parser.error(f"--exchange: {args.exchange:g} s is not a multiple of TOPS's 5 ms step within --duration")
+    require("grid", parser.prog)
+    args.fmu = cli.resolve_fmu(parser, args)
+    cli.writable_folder(args.out)
+    run(args.fmu, args.duration, args.gust_start, args.exchange, args.out, verbose=not args.quiet, quiet=args.quiet)
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    cli.run_command(main)

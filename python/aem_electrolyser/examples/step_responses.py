@@ -15,18 +15,16 @@ the end. Writes <out>/step_responses.csv (current [A] of every run against time 
 step), <out>/step_responses_table.csv (the table) and <out>/step_responses.png before it prints
 the table; the FMU's messages go to stderr.
 """
-import argparse
 import contextlib
 import csv
 import shutil
 import sys
-from pathlib import Path
 
 import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from aem_electrolyser.extras import require
-from aem_electrolyser.cli import add_fmu_option, resolve_fmu, quiet_on_closed_stdout, writable
+from aem_electrolyser import cli
 
 SIZES = [5, 10, 20, 30, 40]  # step sizes [% of nominal]
 TOP, BOTTOM = 100.0, 60.0  # start levels of negative and positive steps [%]
@@ -40,8 +38,9 @@ def runs():
     return ([(f"-{s} %", TOP, TOP - s) for s in SIZES] + [(f"+{s} %", BOTTOM, BOTTOM + s) for s in SIZES])
 
 
-def simulate_steps(fmu, steps, duration, dt):
-    """Current [A] on t = -PRE...duration [s] (step at t = 0) of each (from, to) setpoint pair."""
+def simulate_steps(fmu, steps, duration, dt, quiet=True):
+    """Current [A] on t = -PRE...duration [s] (step at t = 0) of each (from, to) setpoint pair
+    (a progress bar over the steps unless quiet)."""
     md = read_model_description(str(fmu))
     vr = {v.name: v.valueReference for v in md.modelVariables}
     unzipdir = extract(str(fmu))
@@ -49,7 +48,7 @@ def simulate_steps(fmu, steps, duration, dt):
     t = dt * np.arange(-n_pre, n_post + 1)
     currents = []
     try:
-        for u0, u1 in steps:
+        for u0, u1 in cli.progress(steps, desc="step responses", unit="step", quiet=quiet):
             slave = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
                               modelIdentifier=md.coSimulation.modelIdentifier, instanceName="steps")
             slave.instantiate()
@@ -145,26 +144,31 @@ def print_table(table):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_fmu_option(parser)
-    parser.add_argument("--out", type=Path, default=Path("out"), help="directory for the CSV and PNG files")
-    parser.add_argument("--duration", type=float, default=900.0, help="seconds simulated after the step")
-    parser.add_argument("--dt", type=float, default=0.1, help="communication step [s]")
-    parser.add_argument("--dpi", type=int, default=110, help="resolution of the PNG")
+    parser = cli.CommandLine(description=__doc__)
+    cli.add_fmu_option(parser)
+    cli.add_out_option(parser, "out", "step_responses.csv, step_responses_table.csv and step_responses.png")
+    parser.add_argument("--duration", type=cli.positive(float), default=900.0,
+                        help="seconds simulated after the step [default: 900]")
+    parser.add_argument("--dt", type=cli.positive(float), default=0.1, help="communication step [s] [default: 0.1]")
+    parser.add_argument("--dpi", type=cli.positive(int), default=110, help="resolution of the PNG [default: 110]")
     args = parser.parse_args(argv)
-    require("plots", "python -m aem_electrolyser.examples.step_responses")
-    args.fmu = resolve_fmu(parser, args)
-    for name in ("step_responses.csv", "step_responses_table.csv", "step_responses.png"):
-        writable(args.out / name)
+    if args.dt > args.duration:
+        parser.error(f"--dt: {args.dt:g} s is longer than --duration {args.duration:g} s")
+    require("plots", parser.prog)
+    args.fmu = cli.resolve_fmu(parser, args)
+    cli.writable_folder(args.out)
     labeled = runs()
     with contextlib.redirect_stdout(sys.stderr):  # the FMU's log is no report
-        t, currents, gain = simulate_steps(args.fmu, [(u0, u1) for _, u0, u1 in labeled], args.duration, args.dt)
+        t, currents, gain = simulate_steps(args.fmu, [(u0, u1) for _, u0, u1 in labeled], args.duration, args.dt,
+                                          args.quiet)
     table = [[lab, u0, u1] + metrics(t, c, u0, u1, gain) for (lab, u0, u1), c in zip(labeled, currents)]
     write_csvs(args.out, t, labeled, currents, table)
     plot(args.out / "step_responses.png", t, labeled, currents, table, args.dpi)
+    if args.quiet:
+        return
     print_table(table)
     print(f"wrote {args.out / 'step_responses.csv'}, {args.out / 'step_responses_table.csv'} and {args.out / 'step_responses.png'}")
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    cli.run_command(main)

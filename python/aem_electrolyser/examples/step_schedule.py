@@ -1,23 +1,21 @@
 #!/usr/bin/env python3
 """Demo: one AEM module follows a setpoint step schedule, simulated by fmpy.
 
-    python -m aem_electrolyser.examples.step_schedule [--out out/demo]
+    python -m aem_electrolyser.examples.step_schedule [--out out]
 
-Writes <out>.csv (every second) and <out>.png (current, voltage, power and hydrogen flow
+Writes <out>/step_schedule.csv (every second) and step_schedule.png (current, voltage, power and hydrogen flow
 against time), then prints a short table; the FMU's messages go to stderr. Steps
 down follow the two-exponential response of G(s); steps up are held to the 0.22 A/s ramp limit
 until the response catches up.
 """
-import argparse
 import contextlib
 import csv
 import sys
-from pathlib import Path
 
 import numpy as np
 from fmpy import read_model_description, simulate_fmu
 from aem_electrolyser.extras import require
-from aem_electrolyser.cli import add_fmu_option, resolve_fmu, quiet_on_closed_stdout, writable
+from aem_electrolyser import cli
 
 
 #: (time [s], setpoint [%]): hold, step down, step up, leave the window, return.
@@ -89,17 +87,19 @@ def plot(result, path):
     plt.close(fig)
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_fmu_option(parser)
-    parser.add_argument("--out", type=Path, default=Path("out") / "step_schedule")
-    args = parser.parse_args()
-    require("plots", "python -m aem_electrolyser.examples.step_schedule")
-    args.fmu = resolve_fmu(parser, args)
-    csv_path, png_path = writable(args.out.with_suffix(".csv")), writable(args.out.with_suffix(".png"))
+def main(argv=None):
+    parser = cli.CommandLine(description=__doc__)
+    cli.add_fmu_option(parser)
+    cli.add_out_option(parser, "out", "step_schedule.csv and step_schedule.png")
+    args = parser.parse_args(argv)
+    require("plots", parser.prog)
+    args.fmu = cli.resolve_fmu(parser, args)
+    csv_path, png_path = (cli.writable_folder(args.out) / f"step_schedule{suffix}" for suffix in (".csv", ".png"))
     result = simulate(args.fmu)
     write_csv(result, csv_path)
     plot(result, png_path)
+    if args.quiet:
+        return
 
     print(f"{'t [s]':>7} {'setpoint [%]':>12} {'current [A]':>11} {'voltage [V]':>11} {'power [W]':>10} {'H2 [Nl/h]':>9}")
     times = sorted({t for t, _ in SCHEDULE} | {t + d for t, _ in SCHEDULE for d in (10, 60)} | {STOP_TIME})
@@ -114,4 +114,4 @@ def main():
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    cli.run_command(main)

@@ -18,7 +18,6 @@ Writes <out>/validation_day.csv (measured and simulated, every running row),
 <out>/validation_day.png and <out>/validation_parameters.csv, then prints the identified
 parameters against the true ones and the RMSEs. The commands it runs are echoed on stderr.
 """
-import argparse
 import contextlib
 import csv
 import json
@@ -33,7 +32,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
 from aem_electrolyser import locate
-from aem_electrolyser.cli import quiet_on_closed_stdout, writable
+from aem_electrolyser import cli
 from aem_electrolyser.extras import require
 
 SETTLE = 600.0  # rows this long after a start-up are compared [s]
@@ -42,12 +41,16 @@ PARAMETERS = ["gain", "tauZero", "tauPole1", "tauPole2", "rampUpLimit", "voltage
               "ohmicResistance", "h2Coefficient"]
 
 
+class StageFailed(RuntimeError):
+    """A command of the pipeline failed: its name, status and last words."""
+
+
 def run(cmd, log=None):
-    """Runs a command, echoes it on stderr, returns its stdout; exits with its output on failure."""
-    print("$ " + " ".join(str(c) for c in cmd), file=sys.stderr, flush=True)
+    """Runs a command and returns its stdout; StageFailed with its last line of stderr on failure."""
     p = subprocess.run([str(c) for c in cmd], capture_output=True, text=True)
     if p.returncode != 0:
-        sys.exit(f"failed ({p.returncode}): {p.stdout}\n{p.stderr}")
+        said = (p.stderr.strip() or p.stdout.strip() or "no message").splitlines()[-1]
+        raise StageFailed(f"{Path(str(cmd[0])).name} {cmd[1]} failed (exit status {p.returncode}): {said}")
     if log is not None:
         log.write_text(p.stdout)
     return p.stdout
@@ -171,48 +174,67 @@ def write_outputs(out, rows, table):
         w.writerows(table)
 
 
+STAGES = ("synthesize the campaign", "fit", "package the identified FMU", "validate", "compare on the held-out day")
+
+
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", type=Path, default=Path("out"), help="directory for the CSV and PNG files")
-    parser.add_argument("--days", type=int, default=10, help="training days (the held-out day is the next one)")
-    parser.add_argument("--seed", type=int, default=2026, help="seed of the synthetic campaign")
-    parser.add_argument("--hours", type=float, help="running hours per day (default: the generator's 8.2 h)")
+    parser = cli.CommandLine(description=__doc__)
+    cli.add_out_option(parser, "out", "validation_day.csv, validation_parameters.csv, validation_day.png and validation/")
+    parser.add_argument("--days", type=cli.positive(int), default=10,
+                        help="training days (the held-out day is the next one) [default: 10]")
+    parser.add_argument("--seed", type=int, default=2026, help="seed of the synthetic campaign [default: 2026]")
+    parser.add_argument("--hours", type=cli.positive(float),
+                        help="running hours per day, at most 23 [default: the generator's 8.2 h]")
     parser.add_argument("--tool", type=Path, help="aem-identify [default: the one of this installation]")
-    parser.add_argument("--dpi", type=int, default=110, help="resolution of the PNG")
+    parser.add_argument("--dpi", type=cli.positive(int), default=110, help="resolution of the PNG [default: 110]")
     args = parser.parse_args(argv)
-    require("plots", "python -m aem_electrolyser.examples.validation_day")
+    if args.hours is not None and args.hours > 23:
+        parser.error(f"--hours: {args.hours:g} h do not fit a day with its start-up and shut-down (at most 23)")
+    if args.tool is not None and not args.tool.is_file():
+        parser.error(f"--tool: {args.tool} does not exist")
+    require("plots", parser.prog)
     checkout = locate.checkout()
     if checkout is None:
-        sys.exit("validation_day rebuilds the FMU with the identified parameters (packaging/package.py): "
+        sys.exit(f"{parser.prog}: error: it rebuilds the FMU with the identified parameters (packaging/package.py): "
                  "run it in a source checkout of aem-electrolyser")
     try:
         args.tool = args.tool or locate.binary("aem-identify")
     except locate.NotBuilt as e:
         parser.error(f"--tool: {e}")
-    out = args.out.resolve()
-    work = out / "validation"
-    for path in (out / "validation_day.csv", out / "validation_parameters.csv", out / "validation_day.png",
-                 work / "fit_report.txt"):
-        writable(path)
+    out = cli.writable_folder(args.out).resolve()
+    work = cli.writable_folder(out / "validation")
 
-    truth, heldout = synthesize(args.tool, work, args.days, args.seed, args.hours)
-    params = work / "params.json"
-    run([args.tool, "fit", work / "campaign", "-o", params], log=work / "fit_report.txt")
-    fmu = work / "AemIdentified.fmu"
-    run([sys.executable, checkout / "packaging" / "package.py", "--parameters", params, "--out", fmu])
-    check = run([args.tool, "validate", params, heldout])
+    with cli.progress(total=len(STAGES), desc="validation day", unit="stage", quiet=args.quiet) as bar:
+        bar.set_postfix_str(STAGES[0])
+        truth, heldout = synthesize(args.tool, work, args.days, args.seed, args.hours)
+        bar.update()
+        bar.set_postfix_str(STAGES[1])
+        params = work / "params.json"
+        run([args.tool, "fit", work / "campaign", "-o", params], log=work / "fit_report.txt")
+        bar.update()
+        bar.set_postfix_str(STAGES[2])
+        fmu = work / "AemIdentified.fmu"
+        run([sys.executable, checkout / "packaging" / "package.py", "--parameters", params, "--out", fmu])
+        bar.update()
+        bar.set_postfix_str(STAGES[3])
+        check = run([args.tool, "validate", params, heldout])
+        bar.update()
+        bar.set_postfix_str(STAGES[4])
+        with contextlib.redirect_stdout(sys.stderr):  # the FMU's log is no report
+            rows = compare(fmu, load_day(heldout))
+        bar.update()
 
     found = identified(params)
     table = []
     for name in PARAMETERS:
         (true, unit), (value, se) = truth[name], found[name]
         table.append([name, unit, true, value, se, 100.0 * (value / true - 1.0)])
-    with contextlib.redirect_stdout(sys.stderr):  # the FMU's log is no report
-        rows = compare(fmu, load_day(heldout))
     rmses = {k: rmse(rows, k) for k in ("current", "voltage", "power")}
     tool_rmse = float(re.search(r"RMSE current\s+([0-9.]+) A", check).group(1))
     write_outputs(out, rows, table)
     plot(out / "validation_day.png", rows, rmses, args.dpi)
+    if args.quiet:
+        return
 
     print(f"{'parameter':<17} {'unit':<9} {'true':>10} {'identified':>12} {'std. error':>11} {'error':>8}")
     for name, unit, true, value, se, error in table:
@@ -224,4 +246,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    cli.run_command(main)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Example 3: a 60 MW electrolyser hub (25 000 AEM modules) follows a 64 MW offshore wind farm.
 
-    python -m aem_electrolyser.examples.wind_hub [--hours 1 | --duration SECONDS] [--seed 1] [--out out/wind_hub]
+    python -m aem_electrolyser.examples.wind_hub [--hours 1 | --duration SECONDS] [--seed 1] [--out out]
 
 The wind farm's power (aem_electrolyser.wind.farm, 1 s, seeded) is the hub's power reference
 (`powerInput` = true, input `powerReference` [W]); the hub FMU runs in fmpy with 1 s
@@ -10,9 +10,8 @@ power (positive: export of wind power the hub did not absorb). Two dispatches si
 equal (every module the same share; below the minimum they stay at 60 %, the paper's
 behaviour) and sequential (as few modules as possible, the others in standby). Prints the
 energy not absorbed, the hydrogen produced and the RMS tracking error of each after it has
-written <out>.csv and <out>.png; the FMU's messages go to stderr.
+written <out>/wind_hub.csv and wind_hub.png.
 """
-import argparse
 import contextlib
 import csv
 import sys
@@ -23,7 +22,7 @@ import numpy as np
 from aem_electrolyser.hub.driver import HubFMU
 from aem_electrolyser.wind.farm import farm_power
 from aem_electrolyser.extras import require
-from aem_electrolyser.cli import add_fmu_option, resolve_fmu, quiet_on_closed_stdout, writable
+from aem_electrolyser import cli
 
 N_MODULES = 25_000  # the paper's hub: 25 000 modules, about 60 MW
 DISPATCHES = {
@@ -41,7 +40,7 @@ def module_rating(hub):
     return tuple((v0 + r * k * s) * k * s for s in (smin, smax))
 
 
-def simulate(fmu, reference, dt, dispatch, n_modules=N_MODULES, hub_factory=HubFMU):
+def simulate(fmu, reference, dt, dispatch, n_modules=N_MODULES, hub_factory=HubFMU, bar=None):
     """Drive the hub with reference[k] [W] over [k dt, (k+1) dt); outputs at every k dt.
 
     Returns a dict of arrays (len(reference) + 1 samples) and the module rating.
@@ -58,6 +57,8 @@ def simulate(fmu, reference, dt, dispatch, n_modules=N_MODULES, hub_factory=HubF
                 out[name][k] = value
             if k < n:
                 hub.step(dt, powerReference=reference[k])
+                if bar is not None:
+                    bar.update(dt)
     finally:
         hub.close()
     return out, rating
@@ -136,18 +137,20 @@ def plot(path, t, wind, runs, n_modules, rating):
 
 
 def run(fmu=None, duration=3600.0, seed=1, out=None, hub_factory=HubFMU, dispatches=tuple(DISPATCHES),
-        verbose=True):
-    """Simulate every dispatch; write <out>.csv and <out>.png when out is given."""
+        verbose=True, quiet=True):
+    """Simulate every dispatch; write <out>/wind_hub.csv and .png when the folder `out` is given;
+    a progress bar of simulated seconds unless quiet."""
     dt = 1.0
     t, wind, _ = farm_power(duration + dt, dt, seed=seed)
     reference = wind[:-1]
     runs, summaries = {}, {}
-    with contextlib.redirect_stdout(sys.stderr):  # the FMU's log is no report
+    with contextlib.redirect_stdout(sys.stderr), \
+            cli.progress(total=len(dispatches) * len(reference) * dt, unit="s", desc="wind_hub", quiet=quiet) as bar:
         for d in dispatches:
-            runs[d], rating = simulate(fmu, reference, dt, d, hub_factory=hub_factory)
+            runs[d], rating = simulate(fmu, reference, dt, d, hub_factory=hub_factory, bar=bar)
             summaries[d] = summarise(reference, dt, runs[d], N_MODULES, rating)
     if out is not None:
-        out = Path(out)
+        out = Path(out) / "wind_hub"
         out.parent.mkdir(parents=True, exist_ok=True)
         write_csv(out.with_suffix(".csv"), t, wind, runs)
         plot(out.with_suffix(".png"), t, wind, runs, N_MODULES, rating)
@@ -165,20 +168,23 @@ def run(fmu=None, duration=3600.0, seed=1, out=None, hub_factory=HubFMU, dispatc
     return t, wind, runs, summaries
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_fmu_option(parser)
-    parser.add_argument("--hours", type=float, default=1.0)
-    parser.add_argument("--duration", type=float, help="seconds (overrides --hours)")
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--out", type=Path, default=Path("out") / "wind_hub")
-    args = parser.parse_args()
-    require("plots", "python -m aem_electrolyser.examples.wind_hub")
-    args.fmu = resolve_fmu(parser, args)
-    for suffix in (".csv", ".png"):
-        writable(args.out.with_suffix(suffix))
-    run(args.fmu, args.duration if args.duration else args.hours * 3600.0, args.seed, args.out)
+def main(argv=None):
+    parser = cli.CommandLine(description=__doc__)
+    cli.add_fmu_option(parser)
+    span = parser.add_mutually_exclusive_group()
+    span.add_argument("--hours", type=cli.positive(float), default=1.0, help="simulated hours [default: 1]")
+    span.add_argument("--duration", type=cli.positive(float), help="simulated seconds (instead of --hours)")
+    parser.add_argument("--seed", type=int, default=1, help="seed of the wind series [default: 1]")
+    cli.add_out_option(parser, "out", "wind_hub.csv and wind_hub.png")
+    args = parser.parse_args(argv)
+    duration = args.duration if args.duration else args.hours * 3600.0
+    if duration < 2.0:
+        parser.error(f"--duration: {duration:g} s is shorter than two 1 s steps")
+    require("plots", parser.prog)
+    args.fmu = cli.resolve_fmu(parser, args)
+    cli.writable_folder(args.out)
+    run(args.fmu, duration, args.seed, args.out, verbose=not args.quiet, quiet=args.quiet)
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    cli.run_command(main)

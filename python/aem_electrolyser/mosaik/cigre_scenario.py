@@ -3,7 +3,7 @@
 grid, co-simulated in mosaik 3 with pandapower (1 s steps).
 
     python -m aem_electrolyser.mosaik.cigre_scenario [--duration 3600] [--seed 1]
-                                                     [--dispatch equal|sequential] [--out out/mosaik_cigre]
+                                                     [--dispatch equal|sequential] [--out out]
 
 Simulators, all in this process (mosaik's "python" starter; no network, not even loopback):
 
@@ -40,10 +40,9 @@ with the wind at 0 or 64 MW: at Bus 1 (220 kV, fed from the external grid throug
 The 380 kV Bus 7 would do with less margin (0.9506 pu); Bus 9 is the external grid's own 22 kV
 bus. So Bus 1: a strong bus, where a wind farm and an electrolyser absorbing it would connect.
 
-Writes <out>.csv (a row per sample t with the values at t, hub energy and H2 accumulated over
-[0, t]; units in the headers) and <out>.png, then prints a summary.
+Writes <out>/mosaik_cigre.csv (a row per sample t with the values at t, hub energy and H2 accumulated over
+[0, t]; units in the headers) and mosaik_cigre.png, then prints a summary.
 """
-import argparse
 import copy
 import csv
 import tempfile
@@ -54,7 +53,7 @@ import numpy as np
 
 from fmpy import read_model_description
 
-from aem_electrolyser.cli import add_fmu_option, quiet_on_closed_stdout, resolve_fmu, writable
+from aem_electrolyser import cli
 from aem_electrolyser.extras import needs
 from aem_electrolyser.locate import fmu_path
 from aem_electrolyser.wind.farm import farm_power
@@ -175,8 +174,9 @@ def write_wind_csv(path, t, wind):
             w.writerow([str(d).replace("T", " "), f"{p:.0f}"])
 
 
-def simulate(fmu=None, duration=3600, seed=1, dispatch="equal"):
-    """Run the co-simulation; returns a dict of arrays [SI units, MW, pu, %] keyed by name."""
+def simulate(fmu=None, duration=3600, seed=1, dispatch="equal", quiet=True):
+    """Run the co-simulation; returns a dict of arrays [SI units, MW, pu, %] keyed by name.
+    mosaik draws its progress bar (tqdm) unless quiet."""
     fmu = fmu_path(fmu)
     t, wind = wind_series(duration, seed)
     net = pn.create_cigre_network_hv()
@@ -207,7 +207,7 @@ def simulate(fmu=None, duration=3600, seed=1, dispatch="equal"):
         for line in lines:
             world.connect(line, rec, "loading[%]")
         world.connect(grid, rec, *CigreGrid.TOTALS, "loading_trafo_max[%]")
-        world.run(until=duration + 1, print_progress=False)
+        world.run(until=duration + 1, print_progress=cli.shows_progress(quiet))
         records = recorder_sim.get_dict(rec.eid)
 
     times = sorted(records)
@@ -280,15 +280,17 @@ def plot(path, r, dispatch):
     plt.close(fig)
 
 
-def run(fmu=None, duration=3600, seed=1, dispatch="equal", out=None, verbose=True):
-    """Simulate; write <out>.csv and <out>.png when out is given; print a summary when verbose."""
+def run(fmu=None, duration=3600, seed=1, dispatch="equal", out=None, verbose=True, quiet=True):
+    """Simulate; write <out>/mosaik_cigre.csv and .png when the folder `out` is given; print a
+    summary when verbose; a progress bar unless quiet."""
     fmu = fmu_path(fmu)
     started = clock.perf_counter()
-    r = simulate(fmu, duration, seed, dispatch)
+    r = simulate(fmu, duration, seed, dispatch, quiet)
     wall = clock.perf_counter() - started
     kg = kg_per_nl(fmu)
     if out is not None:
-        out = Path(out)
+        out = Path(out) / "mosaik_cigre"
+        out.parent.mkdir(parents=True, exist_ok=True)
         write_csv(out.with_suffix(".csv"), r, kg)
         plot(out.with_suffix(".png"), r, dispatch)
     if verbose:
@@ -310,22 +312,22 @@ def run(fmu=None, duration=3600, seed=1, dispatch="equal", out=None, verbose=Tru
     return r, wall
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_fmu_option(parser)
-    parser.add_argument("--duration", type=int, default=3600, help="seconds (default 3600)")
-    parser.add_argument("--seed", type=int, default=1, help="wind series seed (default 1)")
-    parser.add_argument("--dispatch", choices=list(DISPATCHES), default="equal")
-    parser.add_argument("--out", type=Path, default=Path("out") / "mosaik_cigre",
-                        help="writes OUT.csv and OUT.png (default out/mosaik_cigre)")
-    args = parser.parse_args()
-    args.fmu = resolve_fmu(parser, args)
+def main(argv=None):
+    parser = cli.CommandLine(description=__doc__)
+    cli.add_fmu_option(parser)
+    parser.add_argument("--duration", type=cli.positive(int), default=3600,
+                        help="simulated seconds, at least 2 [default: 3600]")
+    parser.add_argument("--seed", type=int, default=1, help="wind series seed [default: 1]")
+    parser.add_argument("--dispatch", type=cli.one_of(list(DISPATCHES)), default="equal",
+                        help=f"{' or '.join(DISPATCHES)} [default: equal]")
+    cli.add_out_option(parser, "out", "mosaik_cigre.csv and mosaik_cigre.png")
+    args = parser.parse_args(argv)
     if args.duration < 2:
-        parser.error("--duration must be at least 2 s")
-    for suffix in (".csv", ".png"):
-        writable(args.out.with_suffix(suffix))
-    run(args.fmu, args.duration, args.seed, args.dispatch, args.out)
+        parser.error(f"--duration: {args.duration} s; it must be at least 2 s")
+    args.fmu = cli.resolve_fmu(parser, args)
+    cli.writable_folder(args.out)
+    run(args.fmu, args.duration, args.seed, args.dispatch, args.out, verbose=not args.quiet, quiet=args.quiet)
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    cli.run_command(main)

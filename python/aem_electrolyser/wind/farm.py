@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Seeded 1 s power time series of a 64 MW offshore wind farm (8 turbines of 8 MW).
 
-    python -m aem_electrolyser.wind.farm [--hours 1] [--seed 1] [--csv out/wind_farm.csv]
+    python -m aem_electrolyser.wind.farm [--hours 1] [--seed 1] [--out out]
 
 Importable: `farm_power(duration, seed=...)` returns (time [s], farm power [W], turbine wind
 speeds [m/s]); `extreme_operating_gust(...)` gives the IEC gust used by aem_electrolyser.examples.grid_cosim.
@@ -31,13 +31,11 @@ Model (simple and documented; every number below is a default that can be change
   between cut-in 4 m/s and cut-out 25 m/s (the V164's published cut-in and cut-out speeds),
   zero outside; rated power is reached at 11.2 m/s. Electrical losses are neglected.
 """
-import argparse
 import csv
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
-from aem_electrolyser.cli import quiet_on_closed_stdout, writable
+from aem_electrolyser import cli
 
 
 
@@ -146,25 +144,29 @@ def extreme_operating_gust(t, start, site=Site(), turbine=Turbine(), period=10.5
     return -0.37 * v_gust * np.sin(3 * np.pi * x) * (1 - np.cos(2 * np.pi * x))
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--hours", type=float, default=1.0)
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--csv", type=Path, default=Path("out") / "wind_farm.csv")
-    args = parser.parse_args()
-    writable(args.csv)
+def main(argv=None):
+    parser = cli.CommandLine(description=__doc__)
+    parser.add_argument("--hours", type=cli.positive(float), default=1.0, help="hours of 1 s samples [default: 1]")
+    parser.add_argument("--seed", type=int, default=1, help="seed of the series [default: 1]")
+    cli.add_out_option(parser, "out", "wind_farm.csv")
+    args = parser.parse_args(argv)
+    if args.hours * 3600.0 < 2.0:
+        parser.error(f"--hours: {args.hours:g} h is shorter than two 1 s samples")
+    path = cli.writable_folder(args.out) / "wind_farm.csv"
     t, p, speeds = farm_power(args.hours * 3600.0, seed=args.seed)
-    with open(args.csv, "w", newline="") as f:
+    with open(path, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["time [s]", "farm power [W]", "mean turbine wind [m/s]"])
         for row in zip(t, p, speeds.mean(axis=0)):
             w.writerow([f"{x:.10g}" for x in row])
+    if args.quiet:
+        return
     rated = N_TURBINES * Turbine().rated_power
     print(f"wind farm {rated / 1e6:.0f} MW, {t.size} s: mean {p.mean() / 1e6:.2f} MW "
           f"(capacity factor {p.mean() / rated:.2f}), min {p.min() / 1e6:.2f} MW, max {p.max() / 1e6:.2f} MW, "
           f"std {p.std() / 1e6:.2f} MW, largest 1 s change {np.abs(np.diff(p)).max() / 1e6:.2f} MW")
-    print(f"wrote {args.csv}")
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    cli.run_command(main)

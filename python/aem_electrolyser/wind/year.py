@@ -5,7 +5,7 @@ aem_electrolyser.wind.farm, for year-long hub studies: each Dask worker regenera
 SIMD level too: numpy's AVX-512 kernels of pow/exp/cos may differ in the last bit; AVX2 and
 the SSE baseline agree), using about a quarter of a GB beyond the interpreter for a year.
 
-    python -m aem_electrolyser.wind.year [--days 365] [--seed 1] [--dt 1] [--out out/wind_year.png]
+    python -m aem_electrolyser.wind.year [--days 365] [--seed 1] [--dt 1] [--out out]
 
 Model (every number is a default field of `WindClimate`; time t = 0 is 1 January 00:00):
 
@@ -39,18 +39,16 @@ Model (every number is a default field of `WindClimate`; time t = 0 is 1 January
   round(chunk/dt) samples and are always synthesised whole, so a shorter run is the start of
   a longer one with the same dt, and the thread count does not change the result.
 """
-import argparse
 import math
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 from scipy.signal import lfilter
 from scipy.special import gamma, log_ndtr
 
-from aem_electrolyser.cli import quiet_on_closed_stdout, writable
+from aem_electrolyser import cli
 from aem_electrolyser.wind.farm import N_TURBINES, Site, Turbine, power_curve, rotor_effective, turbulent_speeds
 
 FARM_RATING = N_TURBINES * Turbine().rated_power  # [W]
@@ -201,23 +199,29 @@ def plot(power, dt, path):
     plt.close(fig)
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--days", type=float, default=365.0)
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--dt", type=float, default=1.0, help="time step [s]")
-    parser.add_argument("--out", type=Path, default=Path("out") / "wind_year.png")
-    args = parser.parse_args()
-    writable(args.out)
+def main(argv=None):
+    parser = cli.CommandLine(description=__doc__)
+    parser.add_argument("--days", type=cli.positive(float), default=365.0, help="days [default: 365]")
+    parser.add_argument("--seed", type=int, default=1, help="seed [default: 1]")
+    parser.add_argument("--dt", type=cli.positive(float), default=1.0, help="time step [s] [default: 1]")
+    cli.add_out_option(parser, "out", "wind_year.png")
+    args = parser.parse_args(argv)
+    if args.days * DAY < 2 * HOUR:
+        parser.error(f"--days: {args.days:g} days is shorter than two hours")
+    if args.dt > HOUR:
+        parser.error(f"--dt: {args.dt:g} s is longer than an hour")
+    path = cli.writable_folder(args.out) / "wind_year.png"
     p = farm_power_year(args.days * DAY, args.dt, args.seed)
-    plot(p, args.dt, args.out)
+    plot(p, args.dt, path)
+    if args.quiet:
+        return
     h = args.dt / HOUR
     print(f"{args.days:g} days at {args.dt:g} s, seed {args.seed}: mean {p.mean() / 1e6:.2f} MW "
           f"(capacity factor {p.mean() / FARM_RATING:.3f}), {np.count_nonzero(p == 0) * h:.0f} h at zero, "
           f"{np.count_nonzero(p >= FARM_RATING) * h:.0f} h at rated, "
           f"largest {args.dt:g} s change {np.abs(np.diff(p)).max(initial=0) / 1e6:.2f} MW")
-    print(f"wrote {args.out}")
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    cli.run_command(main)
