@@ -111,7 +111,7 @@ def closed_stdout_case(name, tmp, fmu):
         return ["-m", "aem_electrolyser.plot_validation", validation_trace(tmp / "trace.csv"), tmp / "v.png"], [tmp / "v.png"]
     if name == "aem-study":
         (tmp / "flat.csv").write_text("time [s],power [MW]\n0,1\n600,1\n")
-        (tmp / "s.toml").write_text(f'[study]\nfmu = "{fmu}"\n[parameters]\nnModules = 500\n'
+        (tmp / "s.toml").write_text(f'[study]\nfmu = "{fmu}"\n[axes]\nnModules = [500, 600]\n'
                                     '[series.flat]\nfile = "flat.csv"\ncolumn = "power [MW]"\n')
         return (["-m", "aem_electrolyser.study", tmp / "s.toml", "--serial", "--out", tmp / "st"],
                 [tmp / "st" / name for name in ("kpis.csv", "kpis.parquet", "summary.txt", "plots/hydrogen_kg.png")])

@@ -1,14 +1,19 @@
 """The HELICS federation of aem_electrolyser.helics: a broker and the wind, hub and grid federates as
 separate processes over zmq on 127.0.0.1, each test with its own ports and broker key.
 
-* Ten simulated minutes (the 25 000-module hub, 1 s steps) run through `helics run` with the
-  runner file, in bounded time, and every value a federate received is one another published,
+* Ten simulated minutes (the 25 000-module hub, 1 s steps) run through the command
+  `python -m aem_electrolyser.helics.run` (helics-cli on a runner file made from the packaged
+  one), in bounded time, and every value a federate received is one another published,
   at the time HELICS's rules give: a federate that does not wait for the others at a time (wind,
   hub) gets a value published at t at its next grant, t + 1 s; the grid, which waits
   (wait_for_current_time_update), gets it at t; the hub gets w(0) from the wind's
   initializing mode at t = 0.
 * The hub's outputs are, bit for bit, those of the FMU driven alone through fmpy with the same
   reference held over the same steps; the grid's, those of load flows run here without HELICS.
+* The command writes everything into its --out folder (runner file, records, logs, a summary
+  that agrees with the records and with conservation, a figure) and nothing beside the packaged
+  runner file or in its working folder; a bad argument, to it or to a federate, is one line
+  naming the option (status 2); a federate that fails is one line naming it (status 1).
 * A federate that raises, a federate or the broker killed with SIGKILL, a step that hangs, a
   federate that never comes and a wall-clock limit reached each end every other process within
   bounded time with a non-zero status and a message naming what happened.
@@ -22,6 +27,7 @@ import random
 import shlex
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import time
@@ -45,9 +51,9 @@ from aem_electrolyser.wind.farm import farm_power
 pytestmark = pytest.mark.serial
 
 #: The runner file ships with the package, beside the federates.
-RUNNER_FILE = Path(aem_electrolyser.helics.__file__).parent / "federation.json"
+PACKAGE = Path(aem_electrolyser.helics.__file__).parent
+RUNNER_FILE = PACKAGE / "federation.json"
 
-BIN = Path(sys.executable).parent
 DURATION, SEED, N_MODULES = 600, 1, 25_000
 FEDERATES = ("wind", "hub", "grid")
 HUB_OUTPUTS = ["hubPower", "hubEnergy", "hubH2Produced", "hubH2MassFlow"]
@@ -166,33 +172,40 @@ def federation(tmp_path, fmu_path):
         f.close()
 
 
-# --- ten simulated minutes through `helics run` ------------------------------------------------
+# --- the command: `python -m aem_electrolyser.helics.run` ----------------------------------------
+
+def run_command(args, cwd, timeout=300):
+    """Runs the command (its own process group, killed if it outlives timeout [s]); (status,
+    stdout, stderr, wall [s])."""
+    start = time.monotonic()
+    p = subprocess.Popen([sys.executable, "-m", "aem_electrolyser.helics.run", *map(str, args)], cwd=cwd,
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        stdout, stderr = p.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(p.pid, signal.SIGKILL)
+        stdout, stderr = p.communicate()
+        pytest.fail(f"the command still ran after {timeout} s:\n{stdout}\n{stderr}")
+    return p.returncode, stdout, stderr, time.monotonic() - start
+
+
+def package_listing():
+    """The files beside the packaged runner file (Python's own __pycache__ left out)."""
+    return sorted(p.name for p in PACKAGE.iterdir() if p.name != "__pycache__")
+
 
 @pytest.fixture(scope="module")
 def ten_minutes(fmu_path, tmp_path_factory):
-    """Runs the runner file with this test's port, key, horizon and folders; (records, wall [s])."""
+    """Runs the command for DURATION s with this test's port and folders; (records, logs, wall [s])."""
     tmp = tmp_path_factory.mktemp("helics")
-    runner = json.loads(RUNNER_FILE.read_text())
-    cmds = commands(tmp / "out", free_ports(), f"test-{uuid.uuid4().hex}", fmu_path)
-    for f in runner["federates"]:
-        f["directory"] = str(tmp)
-        f["exec"] = shlex.join(["python", *cmds[f["name"]][1:]])
-    path = tmp / "federation.json"
-    path.write_text(json.dumps(runner, indent=2))
-    env = {**os.environ, "PATH": f"{BIN}{os.pathsep}{os.environ['PATH']}"}
-    start = time.monotonic()
-    runner = subprocess.Popen([str(BIN / "helics"), "run", f"--path={path}", "--no-kill-on-error"], cwd=tmp,
-                              env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                              start_new_session=True)  # its own process group: the runner and what it started
-    try:
-        output, _ = runner.communicate(timeout=300)
-    except subprocess.TimeoutExpired:
-        os.killpg(runner.pid, signal.SIGKILL)
-        output, _ = runner.communicate()
-    wall = time.monotonic() - start
-    logs = {name: (tmp / f"{name}.log").read_text() for name in ("broker", *FEDERATES)}
-    assert runner.returncode == 0, output + "\n".join(logs.values())
-    records = {f"{n}_{kind}": table(tmp / "out" / f"{n}_{kind}.csv")
+    out = tmp / "out"
+    status, stdout, stderr, wall = run_command(
+        ["--duration", DURATION, "--out", out, "--port", free_ports(), "--fmu", fmu_path, "--wall-limit", 300,
+         "--quiet"], cwd=tmp)
+    logs = {name: (out / f"{name}.log").read_text() for name in ("broker", *FEDERATES) if (out / f"{name}.log").exists()}
+    assert status == 0, stdout + stderr + "\n".join(logs.values())
+    assert stdout == "" and stderr == ""  # --quiet
+    records = {f"{n}_{kind}": table(out / f"{n}_{kind}.csv")
                for n in FEDERATES for kind in ("published", "received")}
     return records, logs, wall
 
@@ -276,6 +289,124 @@ def test_the_grid_gives_what_fresh_load_flows_give(ten_minutes):
     net_load = received["hub/hubPower [W]"] - received["wind/power [W]"]
     assert np.all(np.abs(published["grid/slackPower [W]"] - base - net_load) <= 1e-3 * np.abs(net_load) + 1.0)
     assert np.abs(net_load).max() > 1e6  # the hub does not absorb the wind exactly
+
+
+# --- the command's folder, summary and figure; its refusals ------------------------------------
+
+#: What a run leaves in its folder, and nothing else.
+RESULT_FILES = {"federation.json", "runner.log", "summary.json", "helics.png",
+                *(f"{n}.log" for n in ("broker", *FEDERATES)),
+                *(f"{n}_{kind}.csv" for n in FEDERATES for kind in ("published", "received"))}
+#: Faraday's law at the reversible cell voltage: no electrolyser makes a kg of hydrogen with less
+#: than 2 F E_rev / M(H2) of electric energy [kWh/kg] (32.7 kWh/kg).
+FARADAY_FLOOR = 2 * 96485.33212 * 1.229 / 2.01588e-3 / 3.6e6
+
+
+def test_the_command_writes_everything_into_its_folder(tmp_path, fmu_path):
+    """60 s with a 20 000-module hub in sequential dispatch and wind seed 3: the runner file,
+    records, logs, summary and figure land in --out, nothing in the working folder nor beside the
+    packaged runner file; the summary agrees with the records and with conservation."""
+    before = package_listing()
+    out, cwd, port = tmp_path / "run", tmp_path / "cwd", free_ports()
+    cwd.mkdir()
+    duration, modules, seed = 60, 20_000, 3
+    status, stdout, stderr, wall = run_command(
+        ["--duration", duration, "--out", out, "--modules", modules, "--dispatch", "sequential", "--seed", seed,
+         "--port", port, "--fmu", fmu_path, "--wall-limit", 300], cwd=cwd)
+    assert status == 0, stdout + stderr
+    assert stderr == ""  # no bar: stdout is not a terminal
+    assert package_listing() == before
+    assert list(cwd.iterdir()) == []
+    assert {p.name for p in out.iterdir()} == RESULT_FILES
+
+    # the runner file: the packaged one with this run's values, the folder as working folder and --out
+    runner = json.loads((out / "federation.json").read_text())
+    template = json.loads(RUNNER_FILE.read_text())
+    assert [f["name"] for f in runner["federates"]] == [f["name"] for f in template["federates"]]
+    assert all(f["directory"] == "." for f in runner["federates"])
+    execs = {f["name"]: shlex.split(f["exec"]) for f in runner["federates"]}
+    assert len({a for e in execs.values() for a in e if a.startswith("--brokerkey=")}) == 1
+    assert f"--port={port}" in execs["broker"]
+    for name in FEDERATES:
+        assert {f"--duration={duration}", "--out=.", f"--brokerport={port}"} <= set(execs[name]), execs[name]
+    assert {f"--n-modules={modules}", "--dispatch=sequential"} <= set(execs["hub"])
+    assert f"--seed={seed}" in execs["wind"]
+    assert f"hub: {duration} s simulated in" in (out / "hub.log").read_text()
+    assert f"({modules} modules, sequential dispatch)" in (out / "hub.log").read_text()
+
+    r = {f"{n}_{kind}": table(out / f"{n}_{kind}.csv") for n in FEDERATES for kind in ("published", "received")}
+    for name, record in r.items():
+        assert np.array_equal(record["time [s]"], np.arange(duration + 1.0)), name
+    hub = r["hub_published"]
+    power, energy = hub["hub/hubPower [W]"], hub["hub/hubEnergy [J]"]
+    h2, flow = hub["hub/hubH2Produced [kg]"], hub["hub/hubH2MassFlow [kg/h]"]
+    wind = farm_power(duration + 1.0, 1.0, seed=seed)[1]  # the series recomputed here
+    s = json.loads((out / "summary.json").read_text())
+    assert (s["simulated duration [s]"], s["modules"], s["dispatch"], s["seed"]) == (duration, modules, "sequential",
+                                                                                     seed)
+    assert 0 < s["wall time [s]"] < wall
+    # the FMU's own integrals at the end, and the wind the hub was given (w(t) held over [t, t + 1 s])
+    assert s["hub energy [MWh]"] == pytest.approx((energy[-1] - energy[0]) / 3.6e9, rel=1e-12)
+    assert s["hydrogen [kg]"] == pytest.approx(h2[-1] - h2[0], rel=1e-12)
+    assert s["wind energy [MWh]"] == pytest.approx(wind[:-1].sum() / 3.6e9, rel=1e-12)
+    # conservation: energy = integral of the power, hydrogen = integral of its mass flow
+    # (trapezoids over the 1 s samples; the FMU integrates within its steps)
+    assert s["hub energy [MWh]"] == pytest.approx(np.trapezoid(power) / 3.6e9, rel=5e-3)
+    assert s["hydrogen [kg]"] == pytest.approx(np.trapezoid(flow) / 3600.0, rel=5e-3)
+    assert s["specific energy [kWh/kg]"] == pytest.approx(1e3 * s["hub energy [MWh]"] / s["hydrogen [kg]"])
+    assert FARADAY_FLOOR < s["specific energy [kWh/kg]"] < 2.5 * FARADAY_FLOOR
+    # at the bus, what the hub does not take of the wind goes into the grid, and the reverse
+    assert s["surplus into the grid [MWh]"] - s["drawn from the grid [MWh]"] == pytest.approx(
+        s["wind energy [MWh]"] - s["hub energy [MWh]"], abs=1e-9)
+    assert min(s["surplus into the grid [MWh]"], s["drawn from the grid [MWh]"]) >= 0
+    assert s["hub power range [MW]"] == pytest.approx([power.min() / 1e6, power.max() / 1e6])
+    slack, voltage = r["grid_published"]["grid/slackPower [W]"], r["grid_published"]["grid/voltage [pu]"]
+    assert s["slack power range [MW]"] == pytest.approx([slack.min() / 1e6, slack.max() / 1e6])
+    assert s["bus voltage range [pu]"] == pytest.approx([voltage.min(), voltage.max()])
+
+    # the report on stdout says the same, with units
+    assert stdout.startswith(f"HELICS federation: {duration} s simulated, broker at 127.0.0.1:{port}")
+    for figure in (f"{s['wind energy [MWh]']:.3f} MWh", f"{s['hub energy [MWh]']:.3f} MWh",
+                   f"{s['hydrogen [kg]']:.2f} kg", f"{s['specific energy [kWh/kg]']:.1f} kWh/kg"):
+        assert figure in stdout, (figure, stdout)
+    png = (out / "helics.png").read_bytes()
+    assert png.startswith(b"\x89PNG\r\n\x1a\n")
+    width, height = struct.unpack(">II", png[16:24])
+    assert width >= 600 and height >= 600, (width, height)
+
+
+def test_a_failed_federation_is_one_line_naming_the_federate(tmp_path, fmu_path):
+    out = tmp_path / "run"
+    status, stdout, stderr, _ = run_command(
+        ["--duration", 60, "--fail-at", 5, "--stall-timeout", STALL, "--out", out, "--port", free_ports(),
+         "--fmu", fmu_path, "--wall-limit", 300, "--quiet"], cwd=tmp_path)
+    assert status == 1
+    assert stderr.splitlines() == [
+        "python -m aem_electrolyser.helics.run: error: the federation failed: grid exited with status 1: failed "
+        f"at t=5 s: RuntimeError: simulated failure at t=5 s (--fail-at) (logs in {out.resolve()})"], stderr
+    assert stdout == ""
+    assert not (out / "summary.json").exists() and not (out / "helics.png").exists()
+
+
+@pytest.mark.parametrize("program, args, expected", [
+    ("run", ["--duration", "0"], "argument --duration: must be a positive integer, not 0"),
+    ("run", ["--dispatch", "eqaul"], "argument --dispatch: 'eqaul' is not one of equal, sequential "
+                                     "(did you mean 'equal'?)"),
+    ("run", ["--port", "80"], "argument --port: must be within 1024 to"),
+    ("run", ["--duraton", "60"], "unknown option --duraton (did you mean '--duration'?)"),
+    ("hub_federate", ["--dispatch", "eqaul"], "argument --dispatch: 'eqaul' is not one of equal, sequential"),
+    ("wind_federate", ["--duration", "0"], "argument --duration: must be a positive integer, not 0"),
+    ("wind_federate", ["--brokrport=23404"], "unknown option --brokrport (did you mean '--brokerport'?)"),
+    ("grid_federate", ["--bus", "Bus 77"], "argument --bus: 'Bus 77' is not a bus of the CIGRE HV grid"),
+])
+def test_a_bad_argument_is_one_line_naming_it(program, args, expected, tmp_path):
+    done = subprocess.run([sys.executable, "-m", f"aem_electrolyser.helics.{program}", *args, "--out",
+                           str(tmp_path / "out")], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert len(done.stderr.splitlines()) == 1, done.stderr
+    assert done.stderr.startswith(f"python -m aem_electrolyser.helics.{program}: error: {expected}"), done.stderr
+    assert done.stdout == ""
+    assert list(tmp_path.iterdir()) == []  # refused before anything was made
 
 
 # --- failures ----------------------------------------------------------------------------------
@@ -378,5 +509,6 @@ def test_an_unwritable_output_folder_ends_a_federate_at_once(name, tmp_path):
     done = subprocess.run([sys.executable, "-m", f"aem_electrolyser.helics.{name}_federate", f"--out={blocker / 'out'}"],
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 1
-    assert done.stderr.strip().splitlines() == [f"{name}_federate.py: cannot write {blocker / 'out'}: Not a directory"]
+    assert done.stderr.strip().splitlines() == [
+        f"python -m aem_electrolyser.helics.{name}_federate: error: cannot write {blocker / 'out'}: Not a directory"]
     assert done.stdout == ""

@@ -1,6 +1,7 @@
 """reserves/: every evaluator on synthetic power traces whose answers are computed here in closed
 form (first-order units, ramp-limited units, hand-computed piecewise-linear traces, sines of
 known linear systems), the signals against the NTR/NTP tables, the bisection and the reports."""
+import csv
 import json
 import math
 
@@ -503,14 +504,63 @@ def test_reports_and_plots(tmp_path):
     md = paths["md"].read_text(encoding="utf-8")
     assert report.DISCLAIMER in md and "not a prequalification approval" in md
     assert "Req. 9" in md.split("Unsure rules")[1] and "**FAIL**" in md
-    assert f"Largest passing capacity: {cap.capacity:.6g} W ({100 * cap.capacity / 4e6:.2f} %" in md
+    assert f"**Capacity: {cap.capacity:.0f} W ({100 * round(cap.capacity) / 4e6:.2f} % of rated).**" in md
     assert "Limiting requirement: toy limit" in md
     rows = paths["csv"].read_text(encoding="utf-8").strip().splitlines()
     assert len(rows) == 1 + len(res) + len(sections[1].results)
     assert rows[1].count("toy limit") == 1
     doc = json.loads(paths["json"].read_text(encoding="utf-8"))
-    assert doc["tests"][0]["largest_capacity_W"] == cap.capacity
+    assert doc["tests"][0]["capacity_W"] == round(cap.capacity)
     assert doc["statement"] == report.DISCLAIMER and any("Req. 9" in n for n in doc["unsure_rules"])
     png = report.plot_time_test(tmp_path / "ramp.png", sig, tr, C)
     nyq = report.plot_nyquist(tmp_path / "nyq.png", pts, "FCR-D up")
     assert png.stat().st_size > 10_000 and nyq.stat().st_size > 10_000
+
+
+def test_the_sellable_capacity_is_the_one_capacity_of_every_report(tmp_path):
+    """Ramp-limited unit ΔP = min(C, ρt) with reduction factors: Req. 2 passes with
+    K = 7.5ρ/(0.86·C) down to K = 0.75, so the bisection goes up to C = 7.5ρ/(0.86·0.75) and the
+    capacity to sell is K·C = 7.5ρ/0.86 (Req. 3's K = ½ρ·7.5²/(3.2·C) is larger). Markdown, CSV
+    and JSON state that one capacity; the tested one only as 'before reduction'."""
+    rho, rated = 1.0e5, 2.0e6
+    sig = S.fcr_d_ramp()
+    cap = bisection.largest_capacity(
+        run=lambda c: rate_limited_unit(sig, c, rho, 0.0), evaluate=lambda tr, c: ev.fcr_d_ramp(tr, c, sig),
+        upper=rated, rated_power=rated, tolerance=1e-4 * rated, use_reduction=True)
+    assert cap.capacity == pytest.approx(7.5 * rho / (0.86 * 0.75), abs=1e-4 * rated)
+    assert cap.sellable == pytest.approx(7.5 * rho / 0.86, rel=1e-9)
+    assert cap.reduction_factor == pytest.approx(cap.sellable / cap.capacity)
+    section = report.Section("FCR-D up", cap.at_capacity, cap.capacity, cap, use_reduction=True)
+    paths = report.write_report(tmp_path, "r", [section], "reduction", rated_power=rated)
+    sold, before = round(cap.sellable), round(cap.capacity)
+    md = paths["md"].read_text(encoding="utf-8")
+    assert f"**Capacity: {sold} W ({100 * sold / rated:.2f} % of rated)" in md
+    assert f"{before} W before reduction" in md and "Largest" not in md
+    assert "**FAIL** without reduction; passes with K_red" in md
+    doc = json.loads(paths["json"].read_text(encoding="utf-8"))["tests"][0]
+    assert doc["capacity_W"] == sold and doc["capacity_before_reduction_W"] == before
+    with open(paths["csv"], newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    assert {float(r["capacity [W]"]) for r in rows} == {sold}
+    assert {float(r["capacity before reduction [W]"]) for r in rows} == {before}
+    assert all("[" in h for h in rows[0] if h.startswith(("capacity", "measured", "low", "high", "K_red")))
+
+
+def test_an_empty_operating_window_tests_nothing():
+    """Upper bound ≤ 0 (e.g. a baseline at rated power for a downward product): nothing runs,
+    capacity 0, limited by the operating window."""
+    ran = []
+    cap = bisection.largest_capacity(lambda c: ran.append(c), lambda x, c: [], upper=0.0, rated_power=1e6)
+    assert ran == [] and cap.capacity == cap.sellable == 0 and cap.window_empty
+    assert bisection.most_steps(0.0, 1e6) == 0
+    figures = report.capacity(report.Section("FCR-D down", [], None, cap), 1e6)
+    assert figures.w == 0 and figures.limiting == "operating window" and "not tested" in figures.detail
+
+
+@pytest.mark.parametrize("upper", [1.0e6, 0.37e6, 5.0e3, 3.0e3])
+def test_bisection_tries_at_most_most_steps(upper):
+    """most_steps: the upper bound, then halvings until the bracket is ≤ 0.5 % of rated."""
+    tried = []
+    bisection.largest_capacity(tried.append, lambda x, c: [ev.check("never", 1, "", None, 0, "", source="t")],
+                               upper=upper, rated_power=1e6)
+    assert len(tried) == bisection.most_steps(upper, 1e6)

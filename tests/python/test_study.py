@@ -2,8 +2,10 @@
 and on a real Dask LocalCluster (worker processes on the loopback).
 
 Expectations: closed-form KPIs of an equal hub at a constant reference, the serial run for
-the cluster's (bit for bit), the FMU's own messages for refused parameters, and the store's
-contents for stopped, resumed and worker-killed studies."""
+the cluster's (bit for bit), the FMU's own messages for refused parameters, the store's
+contents for stopped, resumed and worker-killed studies, and the command-line convention
+(aem_electrolyser.cli): a wrong argument or study file is one line on stderr, status 2, before
+anything runs; a failure of the run one line, status 1."""
 import json
 import math
 import os
@@ -22,7 +24,7 @@ import pytest
 from conftest import PAPER, module_power, setpoint_for
 
 from aem_electrolyser import locate
-from aem_electrolyser.study import cli, engine
+from aem_electrolyser.study import cli, engine, progress
 from aem_electrolyser.study.definition import Study
 from aem_electrolyser.study.kpis import KPIS
 from aem_electrolyser.study.series import reference
@@ -191,20 +193,158 @@ hysteresis = [-1, 5]
     assert "hysteresis = -1 is invalid" in summary and done.stdout.startswith(summary.splitlines()[0])
 
 
+WIND = '[series.w]\ngenerator = "wind"\n'
+
+
+def assert_one_line(err, *said):
+    """stderr is one line, no traceback, and says each of `said`."""
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    for words in said:
+        assert words in err, (words, err)
+
+
 def test_study_file_mistakes_stop_before_anything_runs(tmp_path, fmu_path, capsys):
+    """Each mistake: status 2, one line naming the file, the table and key, and the nearest
+    allowed name; no output folder made."""
     for body, said in [
-        ('[series.w]\ngenerator = "wind"\n[axes]\nhysterisis = [1]\n', "no parameter 'hysterisis'"),
-        ('[series.w]\ngenerator = "wind"\n[axes]\ndispatch = ["equally"]\n', "one of equal, sequential, rotation"),
-        ('[series.w]\ngenerator = "wind"\n[parameters]\nnModules = 2.5\n', "is not an Integer"),
-        ('[series.w]\ngenerator = "wind"\n[parameters]\npowerInput = true\n', "set by aem-study"),
+        (WIND + '[axes]\nhysterisis = [1]\n', "[axes]: unknown axis 'hysterisis' (did you mean 'hysteresis'?)"),
+        (WIND + '[axes]\nhub_sise = [40]\n', "[axes]: unknown axis 'hub_sise' (did you mean 'hub_size'?)"),
+        (WIND + '[axes]\ndispatch = ["equally"]\n', "one of equal, sequential, rotation (did you mean 'equal'?)"),
+        (WIND + '[parameters]\nnModules = 2.5\n', "[parameters] nModules = 2.5 is not an Integer"),
+        (WIND + '[parameters]\nhysterisis = 2\n', "no parameter 'hysterisis' (did you mean 'hysteresis'?)"),
+        (WIND + '[parameters]\npowerInput = true\n', "set by aem-study"),
+        (WIND + '[parameters]\nhub_size = 80\n', "hub_size is an axis, not an FMU parameter"),
         ('[axes]\nseed = [1]\n', "no [series.NAME] table"),
-        ('[series.w]\ngenerator = "wind"\nclimate = { mean_sped = 9 }\n', "mean_sped"),
-        ('[series.f]\nfile = "x.csv"\ncolumn = "p [MW]"\ninterpolate = "linear"\n', "unknown keys ['interpolate']"),
+        (WIND + 'climate = { mean_sped = 9 }\n', "unknown field 'mean_sped' (did you mean 'mean_speed'?)"),
+        ('[series.f]\nfile = "x.csv"\ncolumn = "p [MW]"\ninterpolate = "linear"\n',
+         "[series.f]: unknown key 'interpolate' (did you mean 'interpolation'?)"),
+        ('[series.f]\nfile = "x.csv"\ncolumn = "p [MW]"\n', "[series.f] file: no file"),
+        (WIND + '[axis]\nseed = [1]\n', "unknown table [axis] (did you mean 'axes'?)"),
+        (WIND + '[axes]\nseed = [1, "two"]\n', "[axes] seed: 'two' is not a seed"),
+        (WIND + '[axes]\nhub_size = [40, 0]\n', "[axes] hub_size: 0 is not a hub size"),
+        (WIND + '[axes]\nstep = ["1 s", "0 s"]\n', "[axes] step: '0 s' is not a positive duration"),
+        (WIND + '[axes]\nhub_size = 40\n', "[axes] hub_size: give a non-empty list"),
+        (WIND + '[axes.mode]\nequal = "equal"\n', "[axes.mode] equal must be a table"),
+        (WIND + '[axes]\nseed = [1,\n', "not valid TOML"),
     ]:
         path = write_study(tmp_path, body, fmu_path)
         assert cli.main([str(path), "--serial", "--out", str(tmp_path / "out")]) == 2, body
         err = capsys.readouterr().err
-        assert said in err and not (tmp_path / "out").exists(), (body, err)
+        assert_one_line(err, str(path), said)
+        assert not (tmp_path / "out").exists(), body
+    assert cli.main([str(tmp_path / "missing.toml"), "--serial"]) == 2
+    assert_one_line(capsys.readouterr().err, "missing.toml: no such study file")
+
+
+def test_a_misspelled_axis_names_the_valid_axes_and_the_nearest(tmp_path, fmu_path):
+    """The installed command, as a user meets it: one line on stderr, status 2, the valid axes
+    (the study's own and the FMU's parameters), the nearest one; nothing on stdout."""
+    path = write_study(tmp_path, WIND + '[axes]\nseed = [1]\nhub_sise = [40, 60]\n', fmu_path)
+    done = subprocess.run(AEM_STUDY + [str(path), "--serial", "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and done.stdout == "", done
+    assert_one_line(done.stderr, "aem-study: error: ", str(path), "'hub_sise'", "did you mean 'hub_size'?",
+                    "valid axes: series, seed, hub_size, step, horizon", "hysteresis", "dispatch", "nModules")
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("arguments, said", [
+    (["--workers", "0"], "--workers: must be a positive integer, not 0"),
+    (["--workers", "-1"], "--workers: must be a positive integer, not -1"),
+    (["--workers", "two"], "--workers: 'two' is not an integer"),
+    (["--workers", "2", "--serial"], "not allowed with argument"),
+    (["--serail"], "unknown option --serail (did you mean '--serial'?)"),
+    (["--runner", "no-such-aem-run"], "--runner: no file no-such-aem-run"),
+])
+def test_bad_arguments_are_one_line_and_status_2(tmp_path, fmu_path, capsys, arguments, said):
+    path = write_study(tmp_path, WIND, fmu_path)
+    assert cli.main([str(path), "--out", str(tmp_path / "out"), *arguments]) == 2
+    assert_one_line(capsys.readouterr().err, said)
+    assert not (tmp_path / "out").exists()
+
+
+def test_out_is_a_folder(tmp_path, fmu_path, capsys):
+    path = write_study(tmp_path, WIND, fmu_path)
+    (tmp_path / "file").write_text("")
+    assert cli.main([str(path), "--serial", "--out", str(tmp_path / "file")]) == 2
+    assert_one_line(capsys.readouterr().err, "--out:", "is a file; --out names a folder")
+
+
+def test_a_failure_of_the_run_is_one_line_and_status_1(tmp_path, fmu_path, capsys, monkeypatch):
+    """The run itself failing (a cluster gone, a disk full): one line, status 1; the traceback
+    with --debug."""
+    def broken(*args, **kwargs):
+        raise RuntimeError("the scheduler\nwent away")
+    monkeypatch.setattr(engine, "run", broken)
+    path = write_study(tmp_path, WIND, fmu_path)
+    assert cli.main([str(path), "--serial", "--out", str(tmp_path / "out")]) == 1
+    assert_one_line(capsys.readouterr().err, "error: the scheduler went away (--debug shows the traceback)")
+    with pytest.raises(RuntimeError, match="went away"):
+        cli.main([str(path), "--serial", "--out", str(tmp_path / "out"), "--debug"])
+
+
+FLAT = """horizon = "10 min"
+[parameters]
+nModules = 500
+[series.flat]
+file = "flat.csv"
+column = "power [MW]"
+[axes]
+hysteresis = [2, 5]
+"""
+
+
+def test_quiet_prints_nothing_but_writes_the_report(tmp_path, fmu_path, capsys):
+    """--quiet: no summary, no progress; the files all the same. Without it (stdout not a
+    terminal here): the summary on stdout, a line per finished scenario on stderr, no bar."""
+    (tmp_path / "flat.csv").write_text("time [s],power [MW]\n0,1\n600,1\n")
+    path = write_study(tmp_path, FLAT, fmu_path)
+    arguments = [str(path), "--serial", "--runner", str(RUNNER), "--no-plots"]
+    assert cli.main(arguments + ["--out", str(tmp_path / "quiet"), "--quiet"]) == 0
+    out, err = capsys.readouterr()
+    assert out == "" and "[finished" not in err, (out, err)
+    assert (tmp_path / "quiet" / "summary.txt").is_file()
+    assert cli.main(arguments + ["--out", str(tmp_path / "loud")]) == 0
+    out, err = capsys.readouterr()
+    assert out.startswith("Study: test\n") and "largest hydrogen [kg]" in out
+    finished = [line for line in err.splitlines() if line.startswith("[finished")]
+    assert len(finished) == 2 and "\r" not in err, err
+
+
+class Terminal:
+    """A stream that says it is a terminal (tqdm draws on it)."""
+
+    def __init__(self, tty):
+        self.tty, self.text = tty, []
+
+    def isatty(self):
+        return self.tty
+
+    def write(self, text):
+        self.text.append(text)
+
+    def flush(self):
+        pass
+
+
+@pytest.mark.parametrize("stdout_tty, stream_tty, quiet, kind", [
+    (True, True, False, "bar"),
+    (False, True, False, "lines"),    # stdout is a log or a pipe: no bar
+    (True, False, False, "lines"),    # stderr to a file: no bar
+    (True, True, True, "nothing"),
+    (False, False, True, "nothing"),
+])
+def test_progress_follows_quiet_and_the_terminal(monkeypatch, stdout_tty, stream_tty, quiet, kind):
+    monkeypatch.setattr(sys, "stdout", Terminal(stdout_tty))
+    stream = Terminal(stream_tty)
+    shown = progress.Progress(2, 0, stream=stream, quiet=quiet)
+    assert (shown.bar is not None) == (kind == "bar")
+    for _ in range(2):
+        shown.finished({"status": "done"}, 0, {"seed": 1})
+    shown.close()
+    lines = [t for t in stream.text if t.startswith("[finished")]
+    assert len(lines) == (2 if kind == "lines" else 0)
+    assert (stream.text == []) == (kind == "nothing")
 
 
 SLOW_STUDY = """horizon = "6 h"

@@ -1,16 +1,18 @@
 """study/report.py on synthetic study tables whose KPIs follow simple formulas, so the ranges,
-best cases and seed means the report states are computed here independently."""
+best cases, their caveats and seed means the report states are computed here independently;
+the plots' kind (bars for categories, lines for a scale) read from the matplotlib figures."""
 import hashlib
 import re
 
+import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 import pytest
+from matplotlib.container import BarContainer
 from PIL import Image
 
-
 from aem_electrolyser.study.kpis import KPIS, RUN_COLUMNS
-from aem_electrolyser.study.report import layout, pivot, read_csv, write_report
+from aem_electrolyser.study.report import figure, layout, pivot, plot_kind, read_csv, write_report
 
 AXES = ["series", "mode", "hub size [%]", "seed", "hysteresis [%]"]
 MODES = {"equal": 1.0, "sequential": 0.9}
@@ -135,9 +137,11 @@ def test_written_files_and_plots(crossed):
     assert on_disk == set(written)
     assert all(written[name] == out / name for name in written)
     plots = {name for name in written if name.startswith("plots/")}
+    # grid import is -0.0 in every scenario (constant: stated, not plotted); rms tracking error
+    # has no value at all
     assert plots == {f"plots/{s}.png" for s in (
         "modules_1", "hub_rated_power_MW", "horizon_h", "reference_energy_MWh", "energy_drawn_MWh",
-        "hydrogen_kg", "specific_energy_kWh_per_kg", "wind_not_absorbed_MWh", "grid_import_MWh",
+        "hydrogen_kg", "specific_energy_kWh_per_kg", "wind_not_absorbed_MWh",
         "full-load_hours_h", "starts_per_module_1", "running_hours_per_module_h")}
     for name in plots:
         assert_png(out / name)
@@ -147,7 +151,7 @@ def test_layout_of_the_crossed_study(crossed):
     table = crossed[0]
     lay = layout(table, AXES)
     assert (lay.x, lay.lines, lay.replicates) == ("hub size [%]", ["mode"], ["seed"])
-    assert not lay.categorical
+    assert not lay.categorical and plot_kind(lay) == "lines"
 
 
 def test_summary_counts_failures_ranges_and_best_cases(crossed):
@@ -170,8 +174,17 @@ def test_summary_counts_failures_ranges_and_best_cases(crossed):
     assert numbers(best.split(":")[1])[0] == pytest.approx(mean, rel=1e-5)
     best = summary_line(text, "smallest wind not absorbed [MWh]")
     assert best.endswith("MWh at hub size [%]=150, mode=equal")
-    assert "Best cases (mean over seed):" in text
+    assert "Best cases (mean over seed), with what they took:" in text
     assert "1,530,000 kg at" in text
+
+
+def test_constant_axes_and_kpis_are_stated_not_plotted(crossed):
+    table, out, written = crossed
+    text = (out / "summary.txt").read_text()
+    block = text.split("Constant over the scenarios (not plotted):\n")[1].split("\n\n")[0].splitlines()
+    # series and hysteresis have one value; grid import is -0.0 everywhere (printed as 0)
+    assert block == ["  series = wind2019", "  hysteresis [%] = 5", "  grid import [MWh] = 0 MWh"]
+    assert "plots/grid_import_MWh.png" not in written and not (out / "plots" / "grid_import_MWh.png").exists()
 
 
 def test_pivot_is_the_seed_mean(crossed):
@@ -202,9 +215,11 @@ def test_a_single_scenario(tmp_path):
     table = pd.DataFrame([row({"mode": "equal", "hub size [%]": 100.0}, kpis)])
     written = write_report(table, ["mode", "hub size [%]"], tmp_path, "one run")
     assert_bitwise(read_csv(written["kpis.csv"]), table)
-    assert sum(name.startswith("plots/") for name in written) == len(KPIS)
-    assert_png(written["plots/hydrogen_kg.png"])
+    # one scenario: every KPI is constant, nothing to draw; the summary says so
+    assert not any(name.startswith("plots/") for name in written) and not (tmp_path / "plots").exists()
     text = written["summary.txt"].read_text()
+    block = text.split("Constant over the scenarios (not plotted):\n")[1].split("\n\n")[0].splitlines()
+    assert block[:2] == ["  mode = equal", "  hub size [%] = 100"] and "every KPI" in block[2]
     assert "Scenarios: 1 done, 0 failed (1 in all)" in text and "Failed scenarios: none" in text
     h2 = kpis["hydrogen [kg]"]
     span = numbers(range_line(text, "hydrogen [kg]").removeprefix("  hydrogen [kg]"))
@@ -227,6 +242,7 @@ def test_only_categorical_axes(tmp_path):
     written = write_report(table, axes, tmp_path, "dispatch rules")
     lay = layout(table, axes)
     assert (lay.x, lay.lines, lay.replicates, lay.categorical) == ("mode", ["dispatch"], ["series"], True)
+    assert plot_kind(lay) == "bars"
     back = read_csv(written["kpis.csv"])
     assert back.loc[0, "series"] == "NA" and list(back["mode"][:4]) == ["equal"] * 4
     assert "plots/wind_not_absorbed_MWh.png" not in written
@@ -239,6 +255,8 @@ def test_only_categorical_axes(tmp_path):
     assert summary_line(text, "largest hydrogen [kg]").endswith("at mode=equal, dispatch=roundRobin")
     assert range_line(text, "wind not absorbed [MWh]").endswith("no values")
     assert "  wind not absorbed [MWh]: no values" in text
+    # no wind in a setpoint study: the best case's caveats leave it out rather than print "nan"
+    assert "    grid import:" in text and "    wind not absorbed:" not in text and "nan" not in text
 
 
 def test_many_lines_split_into_subplots(tmp_path):
@@ -262,3 +280,201 @@ def test_all_failed(tmp_path):
     text = written["summary.txt"].read_text()
     assert "0 done, 6 failed" in text and text.count("aem-run exited with status 1") == 6
     assert "  hydrogen [kg]: no values" in text and "Mean hydrogen" not in text
+
+
+# --- best cases and what they took: a hub-sizing study like examples/hub_sizing.toml ----------
+
+DISPATCH = ["equal", "sequential"]
+HUB_SIZES = [40.0, 100.0]
+HUB_FAILED = ("equal", 100.0, 2)   # the best configuration has a failed seed: its caveats are seed 1's
+
+
+def offered(seed):
+    """[MWh] the wind offered, per seed."""
+    return 311000.0 + 1000.0 * seed
+
+
+def drawn(dispatch, size, seed):
+    """[MWh]: the equal hub draws most (held at its minimum with grid power)."""
+    return (4000.0 if dispatch == "equal" else 3100.0) * size + (100.0 if dispatch == "equal" else 50.0) * seed
+
+
+def grid(dispatch, size, seed):
+    """[MWh]: the equal hub imports a quarter of its energy; the sequential one almost nothing."""
+    return 1000.0 * size + 10.0 * seed if dispatch == "equal" else 0.5 * size
+
+
+def lost(dispatch, size, seed):
+    """[MWh], by conservation: offered = drawn + not absorbed - imported."""
+    return offered(seed) - drawn(dispatch, size, seed) + grid(dispatch, size, seed)
+
+
+def starts(dispatch, size, seed):
+    """[1] per module: the equal hub never stops a module."""
+    return 0.0 if dispatch == "equal" else 3000.0 + 100.0 * seed + size
+
+
+def modules(size):
+    return 273 * int(size)
+
+
+def hub_table():
+    rows = []
+    for dispatch in DISPATCH:
+        for size in HUB_SIZES:
+            for seed in SEEDS[:2]:
+                kpis = {k: np.nan for k in KPIS}
+                kpis.update({
+                    "modules [1]": modules(size), "horizon [h]": 8760.0,
+                    "reference energy [MWh]": offered(seed), "energy drawn [MWh]": drawn(dispatch, size, seed),
+                    "hydrogen [kg]": 20.0 * drawn(dispatch, size, seed),
+                    "wind not absorbed [MWh]": lost(dispatch, size, seed),
+                    "grid import [MWh]": grid(dispatch, size, seed),
+                    "starts per module [1]": starts(dispatch, size, seed)})
+                axes = {"dispatch": dispatch, "hub size [%]": size, "seed": seed}
+                rows.append(row(axes, kpis, failed=(dispatch, size, seed) == HUB_FAILED))
+    return pd.DataFrame(rows)
+
+
+def caveat_block(text, best):
+    """The lines under the best-case line that starts with `best`, by their first word(s)."""
+    lines = text.splitlines()
+    i = next(i for i, line in enumerate(lines) if line.strip().startswith(best))
+    block = {}
+    for line in lines[i + 1:]:
+        if not line.startswith("    "):
+            break
+        name, rest = line.strip().split(":", 1)
+        block[name] = rest
+    return block
+
+
+def expected_caveats(dispatch, size):
+    """Means over the done seeds: MWh, % of the energy drawn / offered, starts per module, in all."""
+    seeds = [d for d in SEEDS[:2] if (dispatch, size, d) != HUB_FAILED]
+
+    def mean(f):
+        return np.mean([f(d) for d in seeds])
+    g, e = mean(lambda d: grid(dispatch, size, d)), mean(lambda d: drawn(dispatch, size, d))
+    w, o = mean(lambda d: lost(dispatch, size, d)), mean(offered)
+    s = mean(lambda d: starts(dispatch, size, d))
+    return {"grid import": [g, 100 * g / e, e], "wind not absorbed": [w, 100 * w / o, o],
+            "starts": [s, mean(lambda d: starts(dispatch, size, d) * modules(size))]}
+
+
+def test_best_cases_carry_grid_import_wind_not_absorbed_and_starts(tmp_path):
+    """The most hydrogen comes from the equal hub at 100 %, a quarter of whose energy is grid
+    power; the least wind lost from the sequential hub at 100 %, with thousands of starts."""
+    # the caveats are read from these KPI columns, as aem-run writes them (kpis.KPIS)
+    assert {"grid import [MWh]", "energy drawn [MWh]", "wind not absorbed [MWh]", "reference energy [MWh]",
+            "starts per module [1]", "modules [1]"} <= set(KPIS)
+    table = hub_table()
+    written = write_report(table, ["dispatch", "hub size [%]", "seed"], tmp_path, "hub sizing", plots=False)
+    text = written["summary.txt"].read_text()
+    assert summary_line(text, "largest hydrogen [kg]").endswith("kg at hub size [%]=100, dispatch=equal")
+    assert summary_line(text, "smallest wind not absorbed [MWh]").endswith(
+        "MWh at hub size [%]=100, dispatch=sequential")
+    for best, config in (("largest hydrogen [kg]", ("equal", 100.0)),
+                         ("smallest wind not absorbed [MWh]", ("sequential", 100.0))):
+        block = caveat_block(text, best)
+        assert list(block) == ["grid import", "wind not absorbed", "starts"], (best, block)
+        want = expected_caveats(*config)
+        for name, values in want.items():
+            # shares are printed to 3 significant digits
+            assert numbers(block[name]) == pytest.approx(values, rel=2e-3), (best, name, block[name])
+        assert re.fullmatch(r" \S+ MWh, \S+ % of the \S+ MWh drawn", block["grid import"]), block
+        assert re.fullmatch(r" \S+ MWh, \S+ % of the \S+ MWh offered", block["wind not absorbed"]), block
+        assert re.fullmatch(r" \S+ per module, \S+ in all", block["starts"]), block
+    # the numbers a planner must not miss: a quarter of the best hydrogen is grid power (100 010
+    # of 400 100 MWh), and the hub that leaves the least wind starts each module 3250 times
+    hydrogen = caveat_block(text, "largest hydrogen [kg]")
+    assert hydrogen["grid import"] == " 100010 MWh, 25 % of the 400100 MWh drawn"
+    assert hydrogen["starts"] == " 0 per module, 0 in all"
+    assert caveat_block(text, "smallest wind not absorbed [MWh]")["starts"] == " 3250 per module, 88,725,000 in all"
+
+
+def test_the_constant_horizon_is_stated_not_plotted(tmp_path):
+    table = hub_table()
+    written = write_report(table, ["dispatch", "hub size [%]", "seed"], tmp_path, "hub sizing")
+    text = written["summary.txt"].read_text()
+    block = text.split("Constant over the scenarios (not plotted):\n")[1].split("\n\n")[0].splitlines()
+    assert block == ["  horizon [h] = 8760 h"]
+    plots = {name for name in written if name.startswith("plots/")}
+    assert "plots/horizon_h.png" not in plots and "plots/modules_1.png" in plots  # modules vary with size
+    assert plots == {"plots/modules_1.png", "plots/reference_energy_MWh.png", "plots/energy_drawn_MWh.png",
+                     "plots/hydrogen_kg.png", "plots/wind_not_absorbed_MWh.png", "plots/grid_import_MWh.png",
+                     "plots/starts_per_module_1.png"}
+
+
+def drawn_lines(ax):
+    """The Line2D of `ax` that join points with a visible line (markers and caps alone don't)."""
+    return [line for line in ax.lines
+            if line.get_linestyle() not in ("None", "none", "", " ") and len(line.get_xdata()) > 1]
+
+
+def bars(ax):
+    return [c for c in ax.containers if isinstance(c, BarContainer)]
+
+
+def test_categorical_axes_are_grouped_bars_never_sloping_lines():
+    """dispatch x seed: x is dispatch (3 categories), averaged over the seeds: 3 bars, one group,
+    their seed spread as error bars, and no line from one dispatch to the next."""
+    dispatches = ["equal", "equal, standby", "sequential"]
+    rows = [row({"dispatch": d, "seed": s}, {k: 1000.0 * (i + 1) + 100 * j + s for i, k in enumerate(KPIS)})
+            for j, d in enumerate(dispatches) for s in SEEDS]
+    table = pd.DataFrame(rows)
+    lay = layout(table, ["dispatch", "seed"])
+    assert (lay.x, lay.lines, lay.replicates, plot_kind(lay)) == ("dispatch", [], ["seed"], "bars")
+    fig = figure(table, lay, "hydrogen [kg]", "t")
+    try:
+        (ax,) = fig.axes
+        (group,) = bars(ax)
+        assert len(group.patches) == 3 and not drawn_lines(ax)
+        base = 1000.0 * (list(KPIS).index("hydrogen [kg]") + 1)
+        assert [p.get_height() for p in group.patches] == pytest.approx([base + 100 * j + 2 for j in range(3)])
+        assert [t.get_text() for t in ax.get_xticklabels()] == dispatches
+    finally:
+        plt.close(fig)
+
+
+def test_two_categorical_axes_give_one_bar_group_per_line_axis_value(tmp_path):
+    """mode x dispatch (the categorical study above): a bar per dispatch at each mode."""
+    axes = ["mode", "dispatch"]
+    table = pd.DataFrame([row({"mode": m, "dispatch": d}, {k: 1.0 + i + 2 * a + b for i, k in enumerate(KPIS)})
+                          for a, m in enumerate(["sequential", "equal"]) for b, d in enumerate(["merit", "roundRobin"])])
+    lay = layout(table, axes)
+    assert plot_kind(lay) == "bars"
+    fig = figure(table, lay, "hydrogen [kg]", "t")
+    try:
+        (ax,) = fig.axes
+        groups = bars(ax)
+        assert len(groups) == 2 and all(len(g.patches) == 2 for g in groups) and not drawn_lines(ax)
+        assert [t.get_text() for t in ax.get_legend().get_texts()] == ["dispatch=merit", "dispatch=roundRobin"]
+    finally:
+        plt.close(fig)
+
+
+def test_only_seeds_vary_gives_bars_per_seed():
+    """Seeds are names of wind years, not a scale: bars."""
+    table = pd.DataFrame([row({"seed": s}, {k: float(s + i) for i, k in enumerate(KPIS)}) for s in SEEDS])
+    lay = layout(table, ["seed"])
+    assert (lay.x, plot_kind(lay)) == ("seed", "bars")
+    fig = figure(table, lay, "hydrogen [kg]", "t")
+    try:
+        assert len(bars(fig.axes[0])[0].patches) == 3 and not drawn_lines(fig.axes[0])
+    finally:
+        plt.close(fig)
+
+
+def test_a_numeric_axis_is_drawn_as_lines(crossed):
+    """hub size is a scale: a line per mode (the categorical line axis is the legend, not x)."""
+    table = crossed[0]
+    lay = layout(table, AXES)
+    fig = figure(table, lay, "hydrogen [kg]", "t")
+    try:
+        (ax,) = fig.axes
+        lines = drawn_lines(ax)
+        assert len(lines) == 2 and not bars(ax)
+        assert [list(line.get_xdata()) for line in lines] == [SIZES, SIZES]
+    finally:
+        plt.close(fig)

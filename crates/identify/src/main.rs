@@ -188,7 +188,14 @@ fn keep_freed_memory() {}
 
 fn main() -> ExitCode {
     keep_freed_memory();
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => e.exit(), // --help, --version
+        Err(e) => return usage_error(&one_line(&e.render().to_string())),
+    };
+    if let Err(message) = check_usage(&cli.command) {
+        return usage_error(&message);
+    }
     let result = match cli.command {
         Command::Fit(args) => fit(args),
         Command::Validate(args) => run_validate(args),
@@ -201,6 +208,88 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A bad argument: one line on stderr, exit status 2 (as clap's own errors).
+fn usage_error(message: &str) -> ExitCode {
+    say_err(&format!("aem-identify: error: {message}\n"));
+    ExitCode::from(2)
+}
+
+/// clap's multi-line error as one line: its first line and its tip ("did you mean").
+fn one_line(rendered: &str) -> String {
+    let mut lines = rendered.lines().map(str::trim).filter(|l| !l.is_empty());
+    let mut first = lines
+        .next()
+        .unwrap_or("bad arguments")
+        .trim_start_matches("error: ")
+        .to_string();
+    if first.ends_with(':') {
+        // "the following required arguments were not provided:" and the list below it
+        let listed: Vec<&str> = lines
+            .clone()
+            .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("tip:"))
+            .collect();
+        first = format!("{first} {}", listed.join(", "));
+    }
+    match lines.find_map(|l| l.strip_prefix("tip: ")) {
+        // "a similar argument exists: '--separator'" -> "did you mean '--separator'?"
+        Some(tip) if tip.starts_with("a similar") => match tip.split_once(": ") {
+            Some((_, near)) => format!("{first} (did you mean {near}?)"),
+            None => format!("{first} ({tip})"),
+        },
+        Some(tip) => format!("{first} ({tip}; see --help)"),
+        None => format!("{first} (see --help)"),
+    }
+}
+
+/// The arguments checked before any work: inputs that exist, sizes that make sense.
+fn check_usage(command: &Command) -> Result<(), String> {
+    let exists = |what: &str, path: &PathBuf| {
+        if path.exists() {
+            Ok(())
+        } else {
+            Err(format!("{what} {}: no such file or folder", path.display()))
+        }
+    };
+    match command {
+        Command::Fit(args) => {
+            if args.inputs.is_empty() && args.modules.is_empty() {
+                return Err(
+                    "give the campaign's CSV files or folders (or --module ID=PATH)".into(),
+                );
+            }
+            for path in &args.inputs {
+                exists("input", path)?;
+            }
+            for module in &args.modules {
+                if let Some((_, path)) = module.split_once('=') {
+                    exists("--module", &PathBuf::from(path))?;
+                }
+            }
+        }
+        Command::Validate(args) => {
+            exists("parameter file", &args.params)?;
+            if args.days.is_empty() {
+                return Err("give the held-out day's CSV file(s) after the parameter file".into());
+            }
+            for path in &args.days {
+                exists("held-out day", path)?;
+            }
+        }
+        Command::Synthesize(args) => {
+            if args.days == 0 {
+                return Err("--days 0: write at least one day".into());
+            }
+            if !(args.hours > 0.0 && args.hours <= 23.0) {
+                return Err(format!(
+                    "--hours {}: running hours per day must be in (0, 23]",
+                    args.hours
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Prints `text` to stdout. A reader that has gone away (`aem-identify fit … | head`) ends the

@@ -34,6 +34,19 @@ fn ok(args: &[&str]) -> String {
     text(&out.stdout)
 }
 
+/// Exit status 2 (a bad argument, found before any work) with one line containing `want`.
+fn refused(args: &[&str], want: &str) {
+    let out = tool(args);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    assert!(
+        err.starts_with("aem-identify: error:")
+            && err.contains(want)
+            && err.trim().lines().count() == 1,
+        "{args:?}: {err}"
+    );
+}
+
 /// Exit status 1 with a message containing `want`, and no panic.
 fn fails(args: &[&str], want: &str) {
     let out = tool(args);
@@ -156,7 +169,12 @@ fn one_file_set_per_module() {
 fn bad_input_is_an_error_naming_the_file() {
     let dir = scratch("cli_errors");
     let missing = dir.join("missing.csv");
-    fails(&["fit", s(&missing)], "missing.csv");
+    refused(&["fit", s(&missing)], "missing.csv");
+    refused(&["validate", s(&missing)], "missing.csv");
+    refused(&["synthesize", s(&dir), "--days", "0"], "--days 0");
+    refused(&["synthesize", s(&dir), "--hours", "30"], "--hours 30");
+    refused(&["fit", "--sperator", ";"], "did you mean");
+    refused(&["fitt"], "did you mean 'fit'?");
     let data = dir.join("data.csv");
     std::fs::write(&data, "t,I\n0,1\n").unwrap();
     fails(&["fit", s(&data)], "data.csv:1: no column `time`");
@@ -184,8 +202,8 @@ fn bad_input_is_an_error_naming_the_file() {
         &["validate", s(&params), s(&data)],
         "p.json:1: not a parameter file",
     );
-    // Usage errors are clap's (status 2).
-    assert_eq!(tool(&["fit", "--cells", "many"]).status.code(), Some(2));
+    // Usage errors of clap's: status 2, one line.
+    refused(&["fit", "--cells", "many"], "--cells");
 }
 
 /// Runs the tool with its stdout a pipe whose reading end is closed at once (as `| head`
@@ -236,31 +254,18 @@ fn a_closed_stdout_ends_every_command_quietly_after_its_files_are_written() {
 fn an_output_path_that_cannot_be_written_is_refused_before_the_work() {
     let dir = scratch("cli_output_paths");
     let nowhere = dir.join("no-such-dir").join("params.json");
-    // The input does not exist either: the output path is checked first.
+    // The input is unusable too: the output path is checked before it is read.
+    let unusable = dir.join("unusable.csv");
+    std::fs::write(&unusable, "t,I\n0,1\n").unwrap();
+    fails(&["fit", s(&unusable), "-o", s(&nowhere)], "no-such-dir");
+    fails(&["fit", s(&unusable), "-o", s(&dir)], "is a directory");
     fails(
-        &["fit", s(&dir.join("missing.csv")), "-o", s(&nowhere)],
-        "no-such-dir",
-    );
-    fails(
-        &["fit", s(&dir.join("missing.csv")), "-o", s(&dir)],
-        "is a directory",
-    );
-    fails(
-        &[
-            "validate",
-            s(&dir.join("missing.json")),
-            s(&dir),
-            "--csv",
-            s(&nowhere),
-        ],
+        &["validate", s(&unusable), s(&unusable), "--csv", s(&nowhere)],
         "no-such-dir",
     );
     // A file made to prove the path is removed again when the work fails.
     let fresh = dir.join("fresh.json");
-    fails(
-        &["fit", s(&dir.join("missing.csv")), "-o", s(&fresh)],
-        "missing.csv",
-    );
+    fails(&["fit", s(&unusable), "-o", s(&fresh)], "unusable.csv");
     assert!(!fresh.exists(), "an empty result file was left behind");
     let blocked = dir.join("file");
     std::fs::write(&blocked, "").unwrap();

@@ -33,6 +33,26 @@ struct Args {
     scenario: Scenario,
 }
 
+/// What `aem-run --help` prints.
+const USAGE: &str = "\
+aem-run: one scenario of the hub FMU over a reference series; prints its KPIs as one JSON object
+
+Usage: aem-run --fmu FMU --reference FILE --step SECONDS [OPTIONS]
+
+Options:
+  --fmu FMU              the FMU (through the aem-run of the Python package: the installed one)
+  --reference FILE       little-endian f64 values, one per step ([W] for --input power, [%] for setpoint)
+  --step SECONDS         communication step, > 0
+  --start SECONDS        start time [default: 0]
+  --input power|setpoint what the reference drives [default: power]
+  --param NAME=VALUE     a parameter by its model-description name (repeatable; enumerations by code)
+  --hub-size F           size the hub to F times --source-rating W of rated power (both > 0)
+  --source-rating W      rated power of the source [W]
+  -h, --help             this text
+
+Exit status: 0 done, 1 the FMU or the run failed, 2 a bad argument; the JSON on stdout says which.
+";
+
 fn parse_args(argv: &[String]) -> Result<Args, String> {
     let mut fmu = None;
     let mut reference = None;
@@ -55,7 +75,13 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
         match flag.as_str() {
             "--fmu" => fmu = Some(PathBuf::from(value()?)),
             "--reference" => reference = Some(PathBuf::from(value()?)),
-            "--step" => step = Some(number(value()?)?),
+            "--step" => {
+                let h = number(value()?)?;
+                if !(h.is_finite() && h > 0.0) {
+                    return Err(format!("--step {h}: must be a positive number of seconds"));
+                }
+                step = Some(h);
+            }
             "--start" => start = number(value()?)?,
             "--hub-size" => hub_size = Some(number(value()?)?),
             "--source-rating" => source_rating = Some(number(value()?)?),
@@ -73,7 +99,7 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
                     .ok_or(format!("--param {text}: NAME=VALUE"))?;
                 parameters.push((name.trim().to_string(), v.to_string()));
             }
-            other => return Err(format!("unknown argument {other}")),
+            other => return Err(unknown(other)),
         }
     }
     let hub_size = match (hub_size, source_rating) {
@@ -81,7 +107,14 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
         (None, None) => None,
         _ => return Err("--hub-size needs --source-rating, both > 0".into()),
     };
-    let reference = read_reference(&reference.ok_or("--reference is required")?)?;
+    let reference_path = reference.ok_or("--reference is required")?;
+    let reference = read_reference(&reference_path)?;
+    if reference.is_empty() {
+        return Err(format!(
+            "--reference {}: empty (one f64 per step)",
+            reference_path.display()
+        ));
+    }
     Ok(Args {
         fmu: fmu.ok_or("--fmu is required")?,
         scenario: Scenario {
@@ -93,6 +126,32 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
             hub_size,
         },
     })
+}
+
+/// The options of aem-run.
+const OPTIONS: [&str; 8] = [
+    "--fmu",
+    "--reference",
+    "--step",
+    "--start",
+    "--input",
+    "--param",
+    "--hub-size",
+    "--source-rating",
+];
+
+/// "unknown argument X", with the nearest option where one is near (Jaro-Winkler ≥ 0.8).
+fn unknown(argument: &str) -> String {
+    let nearest = OPTIONS
+        .iter()
+        .map(|o| (strsim::jaro_winkler(o, argument), o))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    match nearest {
+        Some((score, option)) if score >= 0.8 => {
+            format!("unknown argument {argument} (did you mean {option}?)")
+        }
+        _ => format!("unknown argument {argument}"),
+    }
 }
 
 /// The little-endian f64 values of `path`, read through a buffer (a year at 1 s is 252 MB:
@@ -120,9 +179,22 @@ fn read_reference(path: &Path) -> Result<Vec<f64>, String> {
 
 fn main() {
     let argv: Vec<String> = std::env::args().skip(1).collect();
+    if argv.iter().any(|a| a == "--help" || a == "-h") {
+        print!("{USAGE}");
+        return;
+    }
+    let args = match parse_args(&argv) {
+        Ok(args) => args,
+        Err(error) => {
+            // A bad argument: one line for a person on stderr, the JSON for a worker on stdout.
+            eprintln!("aem-run: error: {error} (aem-run --help lists the options)");
+            println!("{}", json!({ "status": "failed", "message": error }));
+            std::process::exit(2);
+        }
+    };
     fmu_messages::install();
     let clock = Instant::now();
-    let outcome = parse_args(&argv).and_then(|args| driver::run(&args.fmu, &args.scenario));
+    let outcome = driver::run(&args.fmu, &args.scenario);
     let (messages, dropped) = fmu_messages::take();
     let mut messages: Vec<Value> = messages.into_iter().map(Value::from).collect();
     if dropped > 0 {

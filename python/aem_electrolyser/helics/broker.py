@@ -14,12 +14,12 @@ Why not `helics_broker` itself: the pip package's `helics_broker` is a Python wr
 the real broker as a child process, and `helics run` ends a failed federation with SIGKILL,
 which leaves that child running and holding its ports; this program is the broker.
 """
-import argparse
 import os
 import shlex
 import sys
 import time
 
+from aem_electrolyser.cli import CommandLine, positive
 from aem_electrolyser.extras import needs
 
 with needs("helics", __name__):
@@ -45,11 +45,11 @@ def _log(level, identifier, message, _user):
 
 
 def main():
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
-                                allow_abbrev=False, epilog="Other options go to HELICS (helics_broker --help).")
+    p = CommandLine(description=__doc__, quiet=False, epilog="Other options go to HELICS (helics_broker --help).")
     p.add_argument("--coretype", default="zmq", help="HELICS core type [default: zmq]")
-    p.add_argument("-f", "--federates", type=int, default=1, help="federates to wait for (passed on) [default: 1]")
-    p.add_argument("--wall-limit", type=float, default=1800.0,
+    p.add_argument("-f", "--federates", type=positive(int), default=1,
+                   help="federates to wait for (passed on) [default: 1]")
+    p.add_argument("--wall-limit", type=positive(float), default=1800.0,
                    help="end with status 2 if the federation still runs after this long [s] [default: 1800]")
     args, init = p.parse_known_args()
     init = [f"--federates={args.federates}", *init]

@@ -18,7 +18,7 @@ Records <out>/grid_published.csv and <out>/grid_received.csv; log to stderr, rep
 """
 import time
 
-from aem_electrolyser.cli import quiet_on_closed_stdout, writable_folder
+from aem_electrolyser.cli import did_you_mean, quiet_on_closed_stdout, writable_folder
 from aem_electrolyser.extras import needs
 from aem_electrolyser.helics import options
 from aem_electrolyser.helics.federate import Federate, report_stream
@@ -35,7 +35,8 @@ def grid(bus_name=HOST_BUS):
     net = pn.create_cigre_network_hv()
     matches = net.bus.index[net.bus.name == bus_name]
     if len(matches) != 1:
-        raise SystemExit(f"grid_federate.py: no bus {bus_name!r} in the CIGRE HV grid ({', '.join(net.bus.name)})")
+        raise ValueError(f"{bus_name!r} is not a bus of the CIGRE HV grid ({', '.join(net.bus.name)})"
+                         f"{did_you_mean(bus_name, list(net.bus.name))}")
     bus = int(matches[0])
     return net, pp.create_sgen(net, bus, p_mw=0.0, name="wind"), pp.create_load(net, bus, p_mw=0.0, name="hub"), bus
 
@@ -52,9 +53,12 @@ def main():
     p = options.parser(__doc__)
     p.add_argument("--bus", default=HOST_BUS, help=f"the bus of the wind farm and the hub [default: {HOST_BUS}]")
     args, helics_args = options.parse(p)
+    try:
+        net, wind, hub, bus = grid(args.bus)
+    except ValueError as e:
+        p.error(f"argument --bus: {e}")
     writable_folder(args.out)
     report = report_stream()
-    net, wind, hub, bus = grid(args.bus)
     solving = 0.0  # wall time in load flows [s]
     with Federate(options.HERE / "grid.json", args, helics_args) as fed:
         fed.enter_executing()

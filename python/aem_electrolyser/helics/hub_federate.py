@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Hub federate: a hub of AEM modules, the packaged FMU driven through fmpy (aem_electrolyser.hub.driver).
 
-    python -m aem_electrolyser.helics.hub_federate [--n-modules 25000] [--dispatch equal|sequential] [--fmu PATH]
+    python -m aem_electrolyser.helics.hub_federate [--modules 25000] [--dispatch equal|sequential] [--fmu PATH]
                            [--duration 3600] [--out out/helics] [HELICS options]
 
 The FMU runs with powerInput = true: the wind farm's power is its powerReference [W].
@@ -24,7 +24,7 @@ import math
 
 from fmpy import read_model_description
 
-from aem_electrolyser.cli import add_fmu_option, quiet_on_closed_stdout, resolve_fmu, writable_folder
+from aem_electrolyser.cli import add_fmu_option, one_of, positive, quiet_on_closed_stdout, resolve_fmu, writable_folder
 from aem_electrolyser.examples.wind_hub import DISPATCHES, N_MODULES
 from aem_electrolyser.helics import options
 from aem_electrolyser.helics.federate import Federate, report_stream
@@ -40,8 +40,9 @@ def kg_per_nl(fmu):
 def main():
     p = options.parser(__doc__)
     add_fmu_option(p)
-    p.add_argument("--n-modules", type=int, default=N_MODULES, help=f"modules in the hub [default: {N_MODULES}]")
-    p.add_argument("--dispatch", choices=sorted(DISPATCHES), default="equal",
+    p.add_argument("--modules", "--n-modules", dest="n_modules", type=positive(int), default=N_MODULES,
+                   help=f"modules in the hub [default: {N_MODULES}]")
+    p.add_argument("--dispatch", type=one_of(sorted(DISPATCHES)), default="equal",
                    help="equal (every module the same share, stay at the minimum) or sequential (as few "
                         "modules as possible, the others in standby) [default: equal]")
     args, helics_args = options.parse(p)

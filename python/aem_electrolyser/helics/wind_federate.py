@@ -13,14 +13,15 @@ that goes silent later for one that disconnected, not for a lost one.
 Records <out>/wind_published.csv and <out>/wind_received.csv; its log goes to stderr, a one-line
 report to stdout.
 """
+from aem_electrolyser.cli import non_negative, quiet_on_closed_stdout, writable_folder
 from aem_electrolyser.helics import options
-from aem_electrolyser.cli import quiet_on_closed_stdout, writable_folder
 from aem_electrolyser.helics.federate import Federate, report_stream
-
 from aem_electrolyser.wind.farm import farm_power
+
+
 def main():
     p = options.parser(__doc__)
-    p.add_argument("--seed", type=int, default=1, help="seed of the wind series [default: 1]")
+    p.add_argument("--seed", type=non_negative(int), default=1, help="seed of the wind series [default: 1]")
     args, helics_args = options.parse(p)
     writable_folder(args.out)
     report = report_stream()

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import evaluate, frequency_domain, report, signals
-from .bisection import CapacityResult, failing, largest_capacity
+from .bisection import CapacityResult, failing, largest_capacity, most_steps
 from aem_electrolyser.hub.runner import HubRunner
 from .products import Product, window_bound
 from .requirement import Trace
@@ -75,13 +75,21 @@ def trace(runner: HubRunner, signal, capacity: float, parameters: dict) -> Trace
     return Trace(signal.t, power, runner.baseline, f=signal.f, reserve_request=request)
 
 
-def largest(runner: HubRunner, product: Product, dt: float = 0.1, tolerance: float = None):
-    """(CapacityResult, Run at the result): bisection on (0, window bound] [W]."""
+def largest(runner: HubRunner, product: Product, dt: float = 0.1, tolerance: float = None,
+            on_step=None):
+    """(CapacityResult, Run at the result, Run just above it): bisection on (0, window bound]
+    [W]. The Run at the result is None if no capacity passes, the Run above is None if the upper
+    bound passes; both are None if the window allows nothing (then nothing runs).
+    on_step(n, most, C, passed) is called after each capacity tried (n = 1, 2, … of at most
+    `most`)."""
     upper = window_bound(product, runner.baseline, runner.least_power, runner.rated_power)
+    most = most_steps(upper, runner.rated_power, tolerance)
     runs = {}
 
     def attempt(c):
         runs[c] = run_product(runner, product, c, dt)
+        if on_step is not None:
+            on_step(len(runs), most, c, not failing(runs[c].results, product.use_reduction))
         return runs[c]
 
     result: CapacityResult = largest_capacity(attempt, lambda r, c: r.results, upper, runner.rated_power,
@@ -89,14 +97,27 @@ def largest(runner: HubRunner, product: Product, dt: float = 0.1, tolerance: flo
     at = runs.get(result.capacity) if result.capacity > 0 else None
     if at is None and result.capacity > 0:
         at = run_product(runner, product, result.capacity, dt)
-    return result, at
+    above = runs.get(result.above_capacity) if result.above_capacity is not None else None
+    return result, at, above
 
 
-def section(product: Product, result: CapacityResult, at: Run) -> report.Section:
+def shown(result: CapacityResult, at: Run, above: Run) -> Run:
+    """The run a report and its plots show: at the passing capacity, or, if none passes, at the
+    bisection's last failing point (the smallest capacity tried); None if nothing ran."""
+    return at if result.capacity > 0 else above
+
+
+def section(product: Product, result: CapacityResult, at: Run, above: Run = None) -> report.Section:
     """The report's section: the requirements at the largest passing capacity (or, if none
-    passes, just above 0, where the failure shows)."""
-    results = at.results if at is not None else result.above
-    notes = [f"searched up to the operating window's bound; bisection tried {len(result.history)} capacities"]
-    if result.reduced_capacity is not None and result.reduced_capacity < result.capacity:
-        notes.append(f"with the reduction factors the capacity is {result.reduced_capacity:.6g} W")
-    return report.Section(product.name, results, at.capacity if at is not None else None, result, notes)
+    passes, at the smallest capacity tried, where the failure shows)."""
+    run = shown(result, at, above)
+    if result.window_empty:
+        notes = [f"not tested: the operating window allows no {product.name} at this baseline "
+                 f"(bound {result.upper:.0f} W)"]
+    else:
+        n = len(result.history)
+        notes = [f"searched up to the operating window's bound, {result.upper:.0f} W; bisection tried "
+                 f"{n} capacit{'y' if n == 1 else 'ies'}"]
+    results = run.results if run is not None else result.above
+    return report.Section(product.name, results, run.capacity if run is not None else None, result, notes,
+                          use_reduction=product.use_reduction)

@@ -5,16 +5,23 @@
         [--compensation both] [--products all] [--out out/prequalification] [--no-plots]
 
 For each hub (dispatch × baseline, each plain and/or with reserveCompensation) and each product
-(Nordic FCR-D up/down dynamic and static, FCR-N, FFR at 49.7/49.6/49.5 Hz, Continental FCR,
-aFRR and mFRR up/down) it runs the product's test programme on the FMU (fmpy, 0.1 s steps, a
-fresh instance per test), evaluates every requirement against its limit and searches by
-bisection the largest capacity that passes, up to what the operating window allows at the
-baseline (reduction factors applied where the rules allow them). Writes, per hub,
-<out>/<hub>.md, .csv and .json (each requirement: measured against its limit, pass/fail, the
-largest capacity in W and % of rated power, the limiting requirement) and, unless --no-plots,
-PNG plots of every test at that capacity; then <out>/summary.md and .csv (products × hubs) and
-prints the summary. Several values of --dispatch, --baseline are comma-separated. Jobs run in
-parallel processes (--jobs, default one per core).
+(Nordic FCR-D up and down, dynamic: the fast ramp test and the sine tests; FCR-N; FFR at
+49.7/49.6/49.5 Hz; Continental FCR; aFRR and mFRR up and down) it runs the product's test
+programme on the FMU (fmpy, 0.1 s steps, a fresh instance per test), evaluates every requirement
+against its limit and searches by bisection the largest capacity that passes, up to what the
+operating window allows at the baseline. Static FCR-D is not assessed: it presumes a relay-style
+activation with a delayed, slow deactivation that the FMU does not implement.
+
+The capacity reported, everywhere the same number, is the one to sell: the largest passing
+capacity times the reduction factor K_red where the rules allow one (FCR-N, FCR-D); the capacity
+before reduction appears only labelled as such. Writes, per hub, <out>/<hub>.md, .csv and .json
+(each requirement: measured against its limit, pass/fail, K_red; the capacity in W and % of
+rated power, the limiting requirement with its measured value against its limit) and, unless
+--no-plots, PNG plots of every product's tests (at the capacity, or, where none passes, at the
+smallest capacity tried), each naming the limiting requirement; then <out>/summary.md and .csv
+(products × hubs) and prints the summary. Several values of --dispatch, --baseline, --products
+are comma-separated. Jobs (hub × product) run in parallel processes (--jobs, default one per
+core).
 
 This is a model-based assessment of the test programme (Nordic FCR technical requirements
 v1.1 of 28 March 2025 and test programme, Fingrid FFR, SO GL Annex V), not a prequalification
@@ -22,142 +29,283 @@ approval; rules that could not be confirmed are reported as unsure (informative)
 """
 import argparse
 import csv
+import multiprocessing
 import os
+import queue
 import re
+import textwrap
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 
-from aem_electrolyser.cli import add_fmu_option, resolve_fmu, quiet_on_closed_stdout, writable_folder
+from aem_electrolyser import cli
+from aem_electrolyser.hub.messages import FmuError
 from aem_electrolyser.hub.runner import Hub, HubRunner
 from aem_electrolyser.reserves import assess, report
 from aem_electrolyser.reserves.products import BY_NAME, PRODUCTS
 
-DISPATCH = {"equal": (1, 0), "sequential": (2, 1)}
+DISPATCH = {"equal": 1, "sequential": 2}
+POLICY = {v: k for k, v in DISPATCH.items()}
+#: The FMU's nModules is an FMI Integer (32 bits).
+MAX_MODULES = 2**31 - 1
 
 
-def hub_name(hub: Hub) -> str:
-    policy = {1: "equal", 2: "sequential"}[hub.dispatch]
-    return f"{policy}_{round(100 * hub.baseline)}pct_{'compensated' if hub.compensation else 'plain'}"
+class JobError(RuntimeError):
+    """A failure in a worker, as one line in its own words (picklable: one string argument,
+    unlike some library exceptions, so that it reaches the parent intact)."""
+
+
+# --- the work of one worker process -----------------------------------------------------------
+
+_PROGRESS = None  # the queue of the worker's bisection steps (None: nobody listens)
+
+
+def _start_worker(progress_queue):
+    global _PROGRESS
+    _PROGRESS = progress_queue
 
 
 def job(fmu, hub, product_name, dt):
-    """One product on one hub (in a worker process): (CapacityResult, Run at it, rated power)."""
-    runner = HubRunner(fmu, hub)
+    """One product on one hub (in a worker process): (CapacityResult, Run at it, Run just above
+    it, rated power). Every bisection step is reported to the parent's progress bar. A failure
+    is an FmuError (the FMU's own message) or a JobError, both with the product's name."""
+    def step(n, most, capacity, passed):
+        if _PROGRESS is not None:
+            _PROGRESS.put((hub_label(hub), product_name, n, most, capacity, passed))
+
     try:
-        result, at = assess.largest(runner, BY_NAME[product_name], dt)
-        return result, at, runner.rated_power
-    finally:
-        runner.close()
+        runner = HubRunner(fmu, hub)
+        try:
+            result, at, above = assess.largest(runner, BY_NAME[product_name], dt, on_step=step)
+            return result, at, above, runner.rated_power
+        finally:
+            runner.close()
+    except FmuError as e:
+        raise FmuError(f"{product_name}: {e}") from e
+    except Exception as e:  # noqa: BLE001 - any failure crosses the process boundary as one line
+        raise JobError(f"{product_name} on the hub ({hub.describe()}): {cli.one_line(e)}") from e
 
 
-def sellable(result) -> float:
-    """The capacity to sell [W]: after the reduction factors where they apply."""
-    return result.reduced_capacity if result.reduced_capacity is not None else result.capacity
+# --- names and figures --------------------------------------------------------------------------
+
+def percent(fraction: float) -> str:
+    """80 for 0.8, 80.5 for 0.805 (distinct baselines give distinct file names)."""
+    return f"{round(100 * fraction, 6):g}"
 
 
-def limiting_text(result) -> str:
-    if result.upper_bound_passes:
-        return "operating window"
-    return "; ".join(r.name for r in result.limiting) or "–"
+def hub_name(hub: Hub) -> str:
+    return f"{POLICY[hub.dispatch]}_{percent(hub.baseline)}pct_{'compensated' if hub.compensation else 'plain'}"
 
 
-def plot_run(folder: Path, stem: str, product, at):
-    for k, (signal, trace) in enumerate(at.tests):
-        report.plot_time_test(folder / f"{stem}_{slug(product.name)}_{k + 1}.png", signal, trace, at.capacity)
-    if at.points:
-        report.plot_nyquist(folder / f"{stem}_{slug(product.name)}_nyquist.png", at.points, product.sine)
+def hub_label(hub: Hub) -> str:
+    return f"{POLICY[hub.dispatch]} {percent(hub.baseline)} %{' compensated' if hub.compensation else ''}"
 
 
 def slug(text: str) -> str:
     return re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")
 
 
-def write_summary(out: Path, hubs, products, results, rated):
-    """summary.md and summary.csv: per product and hub, the largest capacity and what limits it."""
-    rows = []
-    for product in products:
-        for hub in hubs:
-            r = results[(hub, product.name)]
-            rows.append((product.name, hub, sellable(r), 100 * sellable(r) / rated, limiting_text(r)))
+def power_text(w: float) -> str:
+    """A power [W] in W, kW or MW with 4 significant digits (the summary's cells)."""
+    scale, unit = (1e6, "MW") if abs(w) >= 1e6 else (1e3, "kW") if abs(w) >= 1e3 else (1.0, "W")
+    return f"{w / scale:.4g} {unit}"
+
+
+# --- plots --------------------------------------------------------------------------------------
+
+def verdict(figures: report.Capacity, result, run) -> tuple:
+    """(text, failing) for the plots of a product: its capacity and the limiting requirement
+    with its measured value against its limit; failing if the run plotted fails."""
+    head = f"Capacity: {report.capacity_sentence(figures)}."
+    if result.capacity > 0:
+        where = f"Plotted at {run.capacity:.0f} W, {figures.tested}."
+    else:
+        where = f"Plotted at {run.capacity:.0f} W, the smallest capacity tried: it fails."
+    return f"{head} {where}\nLimiting requirement: {figures.detail}", result.capacity <= 0
+
+
+def plot_product(folder: Path, stem: str, product, figures, result, run, title) -> list:
+    """Every test of `product` in `run` (and the Nyquist plot of its sine tests, if they ran),
+    each with the verdict; returns the file names."""
+    text, failing = verdict(figures, result, run)
+    names = []
+    for k, (signal, trace) in enumerate(run.tests):
+        name = f"{stem}_{slug(product.name)}_{k + 1}.png"
+        report.plot_time_test(folder / name, signal, trace, run.capacity, annotation=text, failing=failing,
+                              title=f"{title}: {signal.name}, C = {run.capacity:.0f} W\n"
+                                    + textwrap.fill(report.DISCLAIMER, 130))
+        names.append(name)
+    if run.points:
+        name = f"{stem}_{slug(product.name)}_nyquist.png"
+        report.plot_nyquist(folder / name, run.points, product.sine, annotation=text, failing=failing,
+                            title=f"{title}: sine tests at C = {run.capacity:.0f} W\n"
+                                  + textwrap.fill(report.DISCLAIMER, 130))
+        names.append(name)
+    return names
+
+
+# --- the summary --------------------------------------------------------------------------------
+
+def write_summary(out: Path, hubs, products, figures, rated):
+    """summary.md and summary.csv: per product and hub, the capacity and what limits it."""
+    rows = [(p.name, hub, figures[(hub, p.name)]) for p in products for hub in hubs]
     with open(out / "summary.csv", "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["product", "dispatch", "baseline [% of rated]", "compensation", "largest capacity [W]",
-                    "largest capacity [% of rated]", "limiting requirement"])
-        for name, hub, c, pct, lim in rows:
-            w.writerow([name, {1: "equal", 2: "sequential"}[hub.dispatch], round(100 * hub.baseline),
-                        "on" if hub.compensation else "off", f"{c:.10g}", f"{pct:.4g}", lim])
-    lines = [f"# Largest capacity per product (rated power {rated / 1e6:.2f} MW)", "", f"**{report.DISCLAIMER}**", "",
+        w.writerow(["product", "dispatch", "baseline [% of rated]", "compensation", "capacity [W]",
+                    "capacity [% of rated]", "capacity before reduction [W]", "reduction factor [1]",
+                    "limiting requirement"])
+        for name, hub, c in rows:
+            w.writerow([name, POLICY[hub.dispatch], percent(hub.baseline), "on" if hub.compensation else "off",
+                        f"{c.w:.0f}", f"{c.pct:.2f}",
+                        "" if c.before_reduction_w is None else f"{c.before_reduction_w:.0f}",
+                        "" if c.reduction_factor is None else f"{c.reduction_factor:.6g}", c.limiting])
+    lines = [f"# Capacity per product (rated power {rated / 1e6:.4g} MW)", "", f"**{report.DISCLAIMER}**", "",
+             "The capacity to sell: the largest passing capacity, times the reduction factor K_red where the "
+             "rules allow one (marked K_red). The per-hub reports give every requirement.", "",
              "| product | " + " | ".join(hub_label(h) for h in hubs) + " |", "|---|" + "---|" * len(hubs)]
     for product in products:
         cells = []
         for hub in hubs:
-            r = results[(hub, product.name)]
-            cells.append(f"{sellable(r) / 1e6:.2f} MW ({100 * sellable(r) / rated:.1f} %): {limiting_text(r)}")
-        lines.append(f"| {product.name} | " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+            c = figures[(hub, product.name)]
+            k = f", K_red {c.reduction_factor:.3f}" if c.reduction_factor is not None else ""
+            cells.append(f"{power_text(c.w)} ({c.pct:.2f} %{k}): {c.limiting}")
+        lines.append(f"| {product.name} | " + " | ".join(x.replace("|", "\\|") for x in cells) + " |")
     (out / "summary.md").write_text("\n".join(lines) + "\n")
     return rows
 
 
-def hub_label(hub: Hub) -> str:
-    policy = {1: "equal", 2: "sequential"}[hub.dispatch]
-    return f"{policy} {round(100 * hub.baseline)} %{' compensated' if hub.compensation else ''}"
+# --- the command line ---------------------------------------------------------------------------
+
+def modules_count(text):
+    value = cli.positive(int)(text)
+    if value > MAX_MODULES:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_MODULES} (the FMU's nModules is a 32-bit integer), "
+                                         f"not {text}")
+    return value
+
+
+def baselines(text):
+    """Comma-separated baselines in % of rated power, each within (0, 100]; fractions returned."""
+    values = []
+    for item in [x.strip() for x in text.split(",") if x.strip()] or [text]:
+        try:
+            value = float(item)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{item!r} is not a number (% of rated power)") from None
+        if not 0.0 < value <= 100.0:
+            raise argparse.ArgumentTypeError(f"each must be within (0, 100] % of rated power, not {item}")
+        values.append(value / 100.0)
+    return list(dict.fromkeys(values))
+
+
+def parser():
+    names = [p.name for p in PRODUCTS]
+    p = cli.CommandLine(description=__doc__)
+    cli.add_fmu_option(p)
+    p.add_argument("--modules", type=modules_count, default=25_000, help="modules of the hub [default: 25000]")
+    p.add_argument("--dispatch", type=cli.list_of(tuple(DISPATCH)), default=["equal"],
+                   help="equal, sequential, comma-separated [default: equal]")
+    p.add_argument("--baseline", type=baselines, default=[0.8],
+                   help="baseline consumption in %% of rated power, each within (0, 100] and at least the hub's "
+                        "least steady power; comma-separated [default: 80]")
+    p.add_argument("--compensation", type=cli.one_of(("off", "on", "both")), default="both",
+                   help="reserveCompensation: off, on or both [default: both]")
+    p.add_argument("--products", type=cli.list_of(names), default=names,
+                   help=f"comma-separated, of: {', '.join(names)}; or all [default: all]")
+    p.add_argument("--dt", type=cli.positive(float), default=0.1, help="test signal sampling and FMU step [s] [default: 0.1]")
+    p.add_argument("--jobs", type=cli.positive(int), default=os.cpu_count() or 1,
+                   help="parallel worker processes [default: one per core]")
+    cli.add_out_option(p, Path("out") / "prequalification", "the reports, plots and summary")
+    p.add_argument("--no-plots", action="store_true", help="no PNG plots")
+    return p
+
+
+def check_baselines(p, args):
+    """A baseline the hub cannot hold (below every module at minSetpoint) is a usage error."""
+    runner = HubRunner(args.fmu, Hub(args.modules))
+    try:
+        least = 100.0 * runner.least_power / runner.rated_power
+    finally:
+        runner.close()
+    low = [b for b in args.baseline if 100.0 * b < least - 1e-9]
+    if low:
+        p.error(f"--baseline: {100 * low[0]:g} % is below the hub's least steady power, {least:.2f} % of rated "
+                f"(every module at minSetpoint); give each within [{least:.2f}, 100]")
+
+
+def run_jobs(args, keys):
+    """{(hub, product name): job(...)} with a progress bar over the jobs (the latest bisection
+    step in its postfix); the first failure cancels what has not started and is raised."""
+    context = multiprocessing.get_context()
+    steps = context.Queue() if cli.shows_progress(args.quiet) else None
+    done = {}
+    with cli.progress(total=len(keys), desc="prequalification", unit="job", quiet=args.quiet) as bar, \
+            ProcessPoolExecutor(max_workers=args.jobs, mp_context=context, initializer=_start_worker,
+                                initargs=(steps,)) as pool:
+        futures = {pool.submit(job, args.fmu, hub, name, args.dt): (hub, name) for hub, name in keys}
+        pending = set(futures)
+        try:
+            while pending:
+                finished, pending = wait(pending, timeout=0.25, return_when=FIRST_COMPLETED)
+                _show_steps(steps, bar)
+                for future in finished:
+                    done[futures[future]] = future.result()
+                    bar.update(1)
+        except BaseException:
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
+    return done
+
+
+def _show_steps(steps, bar):
+    if steps is None:
+        return
+    while True:
+        try:
+            hub, product, n, most, capacity, passed = steps.get_nowait()
+        except queue.Empty:
+            return
+        bar.set_postfix_str(f"{product} @ {hub}: step {n} of ≤ {most}, {power_text(capacity)} "
+                            f"{'passes' if passed else 'fails'}", refresh=True)
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(prog="aem-prequalify", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_fmu_option(parser)
-    parser.add_argument("--modules", type=int, default=25_000)
-    parser.add_argument("--dispatch", default="equal", help="equal, sequential (comma-separated)")
-    parser.add_argument("--baseline", default="80", help="baseline consumption, %% of rated power (comma-separated)")
-    parser.add_argument("--compensation", choices=("off", "on", "both"), default="both")
-    parser.add_argument("--products", default="all", help="comma-separated names, e.g. 'FCR-D up,FCR-N' (default all)")
-    parser.add_argument("--dt", type=float, default=0.1, help="test signal sampling and FMU step [s]")
-    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
-    parser.add_argument("--out", type=Path, default=Path("out") / "prequalification")
-    parser.add_argument("--no-plots", action="store_true")
-    args = parser.parse_args(argv)
-    args.fmu = resolve_fmu(parser, args)
-    try:
-        policies = [DISPATCH[d.strip()] for d in args.dispatch.split(",")]
-        baselines = [float(b) / 100.0 for b in args.baseline.split(",")]
-    except (KeyError, ValueError) as e:
-        parser.error(f"--dispatch or --baseline: {e}")
-    if any(not 0.0 < b <= 1.0 for b in baselines):
-        parser.error("--baseline: each must be within (0, 100] %")
-    names = [p.name for p in PRODUCTS] if args.products == "all" else [n.strip() for n in args.products.split(",")]
-    unknown = [n for n in names if n not in BY_NAME]
-    if unknown:
-        parser.error(f"--products: unknown {unknown}; choose from {', '.join(BY_NAME)}")
-    products = [BY_NAME[n] for n in names]
+    p = parser()
+    args = p.parse_args(argv)
+    args.fmu = cli.resolve_fmu(p, args)
+    check_baselines(p, args)
+    cli.writable_folder(args.out)
+    products = [BY_NAME[n] for n in args.products]
     modes = {"off": [False], "on": [True], "both": [False, True]}[args.compensation]
-    hubs = [Hub(args.modules, d, b, base, c) for d, b in policies for base in baselines for c in modes]
-    writable_folder(args.out)
-    args.out.mkdir(parents=True, exist_ok=True)
+    hubs = [Hub(args.modules, DISPATCH[d], 0, base, c) for d in args.dispatch for base in args.baseline for c in modes]
     start = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        futures = {(hub, p.name): pool.submit(job, args.fmu, hub, p.name, args.dt) for hub in hubs for p in products}
-        done = {key: f.result() for key, f in futures.items()}
+    done = run_jobs(args, [(hub, p_.name) for hub in hubs for p_ in products])
     elapsed = time.perf_counter() - start
-    results = {key: r for key, (r, _, _) in done.items()}
-    rated = next(iter(done.values()))[2]
+    rated = next(iter(done.values()))[3]
+    figures = {}
     for hub in hubs:
         stem = hub_name(hub)
-        sections = [assess.section(p, *done[(hub, p.name)][:2]) for p in products]
-        title = f"Reserve prequalification (model-based): {hub.describe()}"
-        report.write_report(args.out, stem, sections, title, rated)
-        if not args.no_plots:
-            for p in products:
-                at = done[(hub, p.name)][1]
-                if at is not None:
-                    plot_run(args.out, stem, p, at)
-    rows = write_summary(args.out, hubs, products, results, rated)
-    print(f"{'product':<20} {'hub':<28} {'largest capacity':>22}  limiting requirement")
-    for name, hub, c, pct, lim in rows:
-        print(f"{name:<20} {hub_label(hub):<28} {c / 1e6:9.3f} MW ({pct:5.1f} %)  {lim}")
-    print(f"{len(hubs)} hub(s) x {len(products)} product(s) assessed in {elapsed:.1f} s; reports in {args.out}")
+        sections = []
+        for product in products:
+            result, at, above, _ = done[(hub, product.name)]
+            section = assess.section(product, result, at, above)
+            c = figures[(hub, product.name)] = report.capacity(section, rated)
+            run = assess.shown(result, at, above)
+            if not args.no_plots and run is not None:
+                section.plots = plot_product(args.out, stem, product, c, result, run,
+                                             f"{product.name}, {hub_label(hub)}")
+            sections.append(section)
+        report.write_report(args.out, stem, sections, f"Reserve prequalification (model-based): {hub.describe()}",
+                            rated)
+    rows = write_summary(args.out, hubs, products, figures, rated)
+    cli.say(args, f"{'product':<16} {'hub':<24} {'capacity':<34} limiting requirement")
+    for name, hub, c in rows:
+        k = f", K_red {c.reduction_factor:.3f}" if c.reduction_factor is not None else ""
+        cli.say(args, f"{name:<16} {hub_label(hub):<24} {f'{power_text(c.w)} ({c.pct:.2f} %{k})':<34} {c.limiting}")
+    cli.say(args, f"{len(hubs)} hub(s) x {len(products)} product(s) assessed in {elapsed:.1f} s; "
+                  f"reports in {args.out}")
+    return 0
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    cli.run_command(main)

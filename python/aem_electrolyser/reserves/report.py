@@ -11,15 +11,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional, Sequence
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from . import frequency_domain as fd  # noqa: E402
-from .requirement import FAIL, PASS, UNSURE, Requirement, Trace, at, mean  # noqa: E402
-from .signals import UP, TestSignal, asked_response  # noqa: E402
+from . import frequency_domain as fd
+from .requirement import FAIL, PASS, UNSURE, Requirement, Trace, at, mean
+from .signals import UP, TestSignal, asked_response
 
 DISCLAIMER = ("This is a model-based assessment of the test programme (Nordic FCR technical "
               "requirements v1.1 of 28 March 2025 and test programme, Fingrid FFR, SO GL "
@@ -28,14 +24,17 @@ DISCLAIMER = ("This is a model-based assessment of the test programme (Nordic FC
 
 @dataclass
 class Section:
-    """One evaluated test: its name, requirements, the capacity offered [W] and, if searched,
-    the bisection result (bisection.CapacityResult)."""
+    """One evaluated test: its name, requirements, the capacity tested [W] and, if searched,
+    the bisection result (bisection.CapacityResult), whether reduction factors may lower the
+    capacity, and the plots drawn of it (file names)."""
 
     name: str
     results: Sequence[Requirement]
     capacity: Optional[float] = None
     capacity_result: object = None
     notes: list = field(default_factory=list)
+    use_reduction: bool = False
+    plots: list = field(default_factory=list)
 
 
 def _cell(x) -> str:
@@ -43,17 +42,80 @@ def _cell(x) -> str:
     return str(x).replace("|", "\\|")
 
 
-def _w(x: Optional[float]) -> str:
-    return "–" if x is None else f"{x:.6g} W"
+@dataclass
+class Capacity:
+    """A product's capacity as every output states it: `w` the sellable capacity [W] (the
+    largest passing capacity, times the reduction factor where the rules allow one), rounded to
+    whole watts, and `pct` its % of rated power (2 decimals); `before_reduction_w` [W] and
+    `reduction_factor` only when a reduction factor applies; `limiting` the limiting
+    requirement(s) by name, `detail` each with its measured value against its limit (or the
+    operating window's bound); `tested` what the shown requirements were evaluated at."""
+
+    w: float
+    pct: float
+    before_reduction_w: Optional[float]
+    reduction_factor: Optional[float]
+    limiting: str
+    detail: str
+    tested: str
 
 
-def _cap(sec: Section, rated: float) -> tuple:
+def _by_name(results, name):
+    return next((r for r in results if r.name == name), None)
+
+
+def _measured(r: Requirement) -> str:
+    return f"{r.measured:.6g} {r.unit}".strip()
+
+
+def capacity(sec: Section, rated: float) -> Optional[Capacity]:
+    """The capacity figures of a searched section (None if it was not searched)."""
     cr = sec.capacity_result
     if cr is None:
-        return None, None, ""
-    lim = "; ".join(r.name for r in cr.limiting) or ("none (upper bound passes)"
-                                                   if cr.upper_bound_passes else "–")
-    return cr.capacity, 100 * cr.capacity / rated, lim
+        return None
+    w = float(round(cr.sellable))
+    pct = round(100.0 * w / rated, 2)
+    k = cr.reduction_factor
+    before = float(round(cr.capacity)) if k is not None else None
+    if getattr(cr, "window_empty", False):
+        limiting = "operating window"
+        detail = (f"operating window: it allows no capacity in this direction at this baseline "
+                  f"(bound {cr.upper:.0f} W); not tested")
+    elif cr.upper_bound_passes:
+        limiting = "operating window"
+        detail = (f"operating window: every requirement passes at its bound, {cr.capacity:.0f} W; "
+                  "a larger capacity does not fit the window at this baseline")
+    else:
+        limiting = "; ".join(r.name for r in cr.limiting) or "–"
+        parts = []
+        for r in cr.limiting:
+            text = f"{r.name}: {_measured(r)} against {r.limit_text}"
+            if cr.above_capacity is not None:
+                text += f" at {cr.above_capacity:.0f} W (fails)"
+            passing = _by_name(cr.at_capacity, r.name) if cr.capacity > 0 else None
+            if passing is not None:
+                text += f", {_measured(passing)} against {passing.limit_text} at {cr.capacity:.0f} W (passes)"
+            parts.append(text)
+        detail = "; ".join(parts) or "–"
+    if sec.capacity is None:
+        tested = "not tested"
+    elif cr.capacity > 0 and k is not None:
+        tested = "the capacity before reduction"
+    elif cr.capacity > 0:
+        tested = "the capacity"
+    else:
+        tested = "the smallest capacity tried (it fails)"
+    return Capacity(w, pct, before, k, limiting, detail, tested)
+
+
+def capacity_sentence(c: Capacity) -> str:
+    """'14439 W (6.16 % of rated), the reduction factor K_red = 0.9476 applied to 15238 W
+    before reduction'."""
+    text = f"{c.w:.0f} W ({c.pct:.2f} % of rated)"
+    if c.reduction_factor is not None:
+        text += (f", the reduction factor K_red = {c.reduction_factor:.4f} applied to "
+                 f"{c.before_reduction_w:.0f} W before reduction")
+    return text
 
 
 def unsure_rules(sections: Sequence[Section]) -> list:
@@ -68,30 +130,35 @@ def unsure_rules(sections: Sequence[Section]) -> list:
 
 def to_markdown(sections: Sequence[Section], title: str, rated_power: float,
                 notes: Sequence[str] = ()) -> str:
-    """The report as Markdown: the disclaimer, per test a table (measured vs limit, status,
-    K_red), the capacity (W, % of rated) and limiting requirement, then the unsure rules."""
+    """The report as Markdown: the disclaimer, per test the capacity (W, % of rated; after the
+    reduction factor where one applies) and the limiting requirement, a table (measured vs
+    limit, status, K_red) at the capacity tested, then the unsure rules."""
     out = [f"# {title}", "", f"**{DISCLAIMER}**", "",
            f"Rated power of the assessed unit: {rated_power:.6g} W.", ""]
     for s in sections:
         out += [f"## {s.name}", ""]
-        if s.capacity is not None:
-            out += [f"Capacity offered: {_w(s.capacity)} ({100 * s.capacity / rated_power:.2f} % "
-                    "of rated).", ""]
-        c, pct, lim = _cap(s, rated_power)
+        c = capacity(s, rated_power)
         if c is not None:
-            out += [f"**Largest passing capacity: {c:.6g} W ({pct:.2f} % of rated).** "
-                    f"Limiting requirement: {lim}.", ""]
-        out += ["| Requirement | Measured | Limit | Status | K_red (range) | Source, note |",
-                "|---|---|---|---|---|---|"]
+            out += [f"**Capacity: {capacity_sentence(c)}.** Limiting requirement: {c.detail}.", ""]
+        if s.capacity is not None:
+            where = f", {c.tested}" if c is not None else ""
+            out += [f"Requirements at {s.capacity:.0f} W ({100 * s.capacity / rated_power:.2f} % of "
+                    f"rated){where}:", ""]
+        if s.results:
+            out += ["| Requirement | Measured | Limit | Status | K_red (range) | Source, note |",
+                    "|---|---|---|---|---|---|"]
         for r in s.results:
             k = "–" if r.k_red is None else f"{r.k_red:.4f}"
             if r.k_range:
                 k += f" ({r.k_range[0]:g}–{r.k_range[1]:g})"
             st = {PASS: "pass", FAIL: "**FAIL**", UNSURE: "unsure (informative)"}[r.status]
-            cells = [r.name, f"{r.measured:.6g} {r.unit}".strip(), r.limit_text, st, k,
+            if r.status == FAIL and s.use_reduction and r.k_red:
+                st = "**FAIL** without reduction; passes with K_red"
+            cells = [r.name, _measured(r), r.limit_text, st, k,
                      r.source + ("; " + r.note if r.note else "")]
-            out.append("| " + " | ".join(_cell(c) for c in cells) + " |")
-        out += [""] + [f"- {n}" for n in s.notes] + ([""] if s.notes else [])
+            out.append("| " + " | ".join(_cell(x) for x in cells) + " |")
+        s_notes = list(s.notes) + (["plots: " + ", ".join(f"`{p}`" for p in s.plots)] if s.plots else [])
+        out += [""] + [f"- {n}" for n in s_notes] + ([""] if s_notes else [])
     uns = unsure_rules(sections)
     out += ["## Unsure rules (informative, not pass/fail)", ""]
     out += [f"- {r.name}: {r.note or r.source}" for r in uns] or ["- none"]
@@ -99,22 +166,29 @@ def to_markdown(sections: Sequence[Section], title: str, rated_power: float,
     return "\n".join(out) + "\n"
 
 
-_COLUMNS = ["test", "requirement", "measured", "unit", "limit", "low", "high", "limit_unit",
-            "status", "k_red", "k_min", "k_max", "source", "note", "capacity_offered_W",
-            "largest_capacity_W", "largest_capacity_pct_rated", "limiting_requirement"]
+#: The per-test CSV: one row per requirement; the unit of `measured` is in `unit`, that of
+#: `low`/`high` in `limit unit`; every capacity in W (the capacity after reduction where one
+#: applies; `capacity before reduction [W]` only then).
+_COLUMNS = ["test", "requirement", "measured [see unit]", "unit", "limit", "low [see limit unit]",
+            "high [see limit unit]", "limit unit", "status", "K_red [1]", "K_red min [1]",
+            "K_red max [1]", "source", "note", "tested capacity [W]", "capacity [W]",
+            "capacity [% of rated]", "capacity before reduction [W]", "reduction factor [1]",
+            "limiting requirement"]
 
 
 def _rows(sections, rated_power):
     for s in sections:
-        c, pct, lim = _cap(s, rated_power)
+        c = capacity(s, rated_power)
+        figures = [None] * 5 if c is None else [
+            f"{c.w:.0f}", f"{c.pct:.2f}",
+            None if c.before_reduction_w is None else f"{c.before_reduction_w:.0f}",
+            None if c.reduction_factor is None else f"{c.reduction_factor:.6g}", c.limiting]
         for r in s.results:
-            yield {"test": s.name, "requirement": r.name, "measured": r.measured, "unit": r.unit,
-                   "limit": r.limit_text, "low": r.low, "high": r.high,
-                   "limit_unit": r.limit_unit, "status": r.status, "k_red": r.k_red,
-                   "k_min": r.k_range[0] if r.k_range else None,
-                   "k_max": r.k_range[1] if r.k_range else None, "source": r.source,
-                   "note": r.note, "capacity_offered_W": s.capacity, "largest_capacity_W": c,
-                   "largest_capacity_pct_rated": pct, "limiting_requirement": lim}
+            yield dict(zip(_COLUMNS, [
+                s.name, r.name, r.measured, r.unit, r.limit_text, r.low, r.high, r.limit_unit,
+                r.status, r.k_red, r.k_range[0] if r.k_range else None,
+                r.k_range[1] if r.k_range else None, r.source, r.note,
+                None if s.capacity is None else f"{s.capacity:.0f}", *figures]))
 
 
 def write_csv(path, sections: Sequence[Section], rated_power: float) -> Path:
@@ -142,11 +216,16 @@ def write_json(path, sections: Sequence[Section], title: str, rated_power: float
     doc = {"title": title, "statement": DISCLAIMER, "rated_power_W": rated_power,
            "tests": [], "unsure_rules": [r.name for r in unsure_rules(sections)]}
     for s in sections:
-        c, pct, lim = _cap(s, rated_power)
-        doc["tests"].append({"name": s.name, "capacity_offered_W": s.capacity,
-                             "largest_capacity_W": c, "largest_capacity_pct_rated": pct,
-                             "limiting_requirement": lim, "notes": list(s.notes),
-                             "requirements": [r.to_dict() for r in s.results]})
+        c = capacity(s, rated_power)
+        entry = {"name": s.name, "tested_capacity_W": None if s.capacity is None else float(round(s.capacity))}
+        if c is not None:
+            entry.update({"capacity_W": c.w, "capacity_pct_rated": c.pct,
+                          "capacity_before_reduction_W": c.before_reduction_w,
+                          "reduction_factor": c.reduction_factor, "tested_at": c.tested,
+                          "limiting_requirement": c.limiting, "limiting_detail": c.detail})
+        entry.update({"notes": list(s.notes), "plots": list(s.plots),
+                      "requirements": [r.to_dict() for r in s.results]})
+        doc["tests"].append(entry)
     Path(path).write_text(json.dumps(_finite(doc), indent=2, ensure_ascii=False, allow_nan=False),
                           encoding="utf-8")
     return Path(path)
@@ -164,6 +243,17 @@ def write_report(out_dir, stem: str, sections: Sequence[Section], title: str,
 
 
 # ---------------------------------------------------------------- plots
+
+
+def _pyplot():
+    """matplotlib.pyplot on the Agg backend, imported at the first plot (a second of import that
+    a report without plots, a usage error or a worker process does not pay)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def _scale(c):
@@ -223,12 +313,34 @@ def _limits(ax, signal: TestSignal, trace: Trace, C, k):
             ax.axvline(t_on + fat, color="tab:red", lw=0.6, ls=":")
 
 
+def _verdict(fig, annotation: Optional[str], failing: bool, width: int = 150) -> float:
+    """The binding requirement as a text box at the foot of `fig` (red edge if it fails at the
+    capacity plotted, green if it passes); the fraction of the figure's height it takes."""
+    if not annotation:
+        return 0.0
+    lines = [w for line in annotation.splitlines() for w in textwrap.wrap(line, width) or [""]]
+    fig.text(0.01, 0.005, "\n".join(lines), va="bottom", ha="left", fontsize=7,
+             bbox=dict(boxstyle="round", facecolor="white",
+                       edgecolor="tab:red" if failing else "tab:green", linewidth=1.5))
+    return (len(lines) * 7 * 1.35 + 14) / 72 / fig.get_figheight()
+
+
+def _metadata(title: Optional[str], annotation: Optional[str]) -> dict:
+    """PNG text chunks: the title and the verdict, for readers of the file without the image."""
+    meta = {"Title": title} if title else {}
+    if annotation:
+        meta["Description"] = annotation
+    return meta
+
+
 def plot_time_test(path, signal: TestSignal, trace: Trace, capacity: float,
-                   zoom: Optional[Sequence[tuple]] = None, title: Optional[str] = None) -> Path:
+                   zoom: Optional[Sequence[tuple]] = None, title: Optional[str] = None,
+                   annotation: Optional[str] = None, failing: bool = False) -> Path:
     """Frequency (or request) on top, ΔP_up delivered and asked below with the limits; one more
     row per zoom window (t0, t1) [s] (default: ramp 5 and ramps 1-2 for FCR-D, ramp 1 for static
     FCR-D, the trigger for FFR). Asked = −reserveRequest if the trace carries it, else the static
-    characteristic × C."""
+    characteristic × C. `annotation` (the binding requirement, measured against its limit) is
+    boxed at the foot, its edge red if `failing`, and kept as the PNG's Description."""
     k, unit = _scale(capacity)
     m = signal.marks
     if zoom is None:
@@ -237,6 +349,7 @@ def plot_time_test(path, signal: TestSignal, trace: Trace, capacity: float,
                 "ffr_step": [(m.get("t_trigger", 0) - 2, m.get("t_trigger", 0) + 40)]
                 }.get(signal.kind, [])
     n = 2 + len(zoom)
+    plt = _pyplot()
     fig, axes = plt.subplots(n, 1, figsize=(10, 2.6 * n), squeeze=False)
     axes = axes[:, 0]
     if signal.f is not None:
@@ -264,18 +377,20 @@ def plot_time_test(path, signal: TestSignal, trace: Trace, capacity: float,
     axes[-1].set_xlabel("time [s]")
     axes[0].set_title(title or f"{signal.name}: C = {capacity / k:.4g} {unit}\n"
                       + textwrap.fill(DISCLAIMER, 130), fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.tight_layout(rect=(0, _verdict(fig, annotation, failing, 180), 1, 1))
+    fig.savefig(path, dpi=110, metadata=_metadata(title, annotation))
     plt.close(fig)
     return Path(path)
 
 
 def plot_nyquist(path, points: Sequence["fd.SinePoint"], product: str,
-                 title: Optional[str] = None) -> Path:
+                 title: Optional[str] = None, annotation: Optional[str] = None,
+                 failing: bool = False) -> Path:
     """Nyquist curve of G0 = F·G (interpolated between tested periods, the tested points
     labelled) with the circles of radius 0.43 and 0.43·0.95 around −1; beside it Req. 9
-    (|G_c| against |1/D|, marked unsure)."""
+    (|G_c| against |1/D|, marked unsure). `annotation` as in plot_time_test."""
     _, g0, gp = fd.nyquist(points, product)
+    plt = _pyplot()
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 5))
     a1.plot(g0.real, g0.imag, color="tab:green", lw=1.2, label="G0 = F·G (interpolated)")
     a1.plot(gp.real, gp.imag, "o", color="tab:green")
@@ -304,7 +419,7 @@ def plot_nyquist(path, points: Sequence["fd.SinePoint"], product: str,
     a2.legend(fontsize=7)
     a2.set_title("Req. 9 (UNSURE: D(s) not confirmed)", fontsize=9)
     fig.suptitle(title or textwrap.fill(DISCLAIMER, 130), fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fig.tight_layout(rect=(0, _verdict(fig, annotation, failing, 170), 1, 1))
+    fig.savefig(path, dpi=110, metadata=_metadata(title, annotation))
     plt.close(fig)
     return Path(path)

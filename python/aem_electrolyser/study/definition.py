@@ -29,6 +29,10 @@
 
 Paths are relative to the study file. Each scenario's definition (FMU, parameters, series,
 hub size, step, horizon) is a dict whose canonical JSON hashes to its key.
+
+Everything in the file is checked when it is read, before anything runs: a mistake is a
+StudyError, one line naming the file, the table and the key, what is allowed there and the
+nearest allowed name ("did you mean ...").
 """
 import hashlib
 import itertools
@@ -37,7 +41,11 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from dataclasses import fields
+
 from aem_electrolyser import locate
+from aem_electrolyser.cli import did_you_mean
+from aem_electrolyser.wind.year import WindClimate
 
 from .parameters import ModelParameters
 from .quantities import duration, power
@@ -47,6 +55,13 @@ YEAR = 365 * 86400.0
 #: Bumped when the KPIs' definitions change: stored results of older ones are not reused.
 KPI_VERSION = 1
 SPECIAL_AXES = ("series", "seed", "hub_size", "step", "horizon")
+TABLES = ("study", "parameters", "series", "axes")
+STUDY_KEYS = ("title", "fmu", "horizon", "step")
+FILE_SERIES_KEYS = ("file", "time", "column", "interpolation", "rating")
+
+
+class StudyError(ValueError):
+    """A mistake in a study file, as one line: the file, the table and key, what is allowed."""
 
 
 @dataclass
@@ -63,9 +78,29 @@ def scenario_key(definition):
 
 
 def _known(table, keys, where):
-    unknown = set(table) - keys
-    if unknown:
-        raise ValueError(f"{where}: unknown keys {sorted(unknown)}; known: {sorted(keys)}")
+    """Refuses the first key of `table` that is not one of `keys`, suggesting the nearest."""
+    for key in table:
+        if key not in keys:
+            raise ValueError(f"{where}: unknown key {key!r}{did_you_mean(key, keys)}; "
+                             f"keys: {', '.join(keys)}")
+
+
+def _table(value, where):
+    """`value` if it is a TOML table, else a ValueError naming `where`."""
+    if not isinstance(value, dict):
+        raise ValueError(f"{where} must be a table, not {value!r}")
+    return value
+
+
+def _number(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and value == value
+
+
+def _positive_duration(value, where):
+    seconds = duration(value, where)
+    if not 0 < seconds < float("inf"):
+        raise ValueError(f"{where}: {value!r} is not a positive duration")
+    return seconds
 
 
 class Study:
@@ -73,84 +108,179 @@ class Study:
 
     def __init__(self, path):
         self.path = Path(path)
+        self._scenarios = None
+        try:
+            self._read(self._load())
+        except StudyError:
+            raise
+        except (ValueError, TypeError) as e:
+            raise StudyError(f"{self.path}: {' '.join(str(e).split())}") from None
+
+    def _load(self):
+        try:
+            with open(self.path, "rb") as f:
+                return tomllib.load(f)
+        except FileNotFoundError:
+            raise StudyError(f"{self.path}: no such study file") from None
+        except IsADirectoryError:
+            raise StudyError(f"{self.path}: a folder, not a study file") from None
+        except OSError as e:
+            raise StudyError(f"{self.path}: cannot read the study file ({e.strerror})") from None
+        except UnicodeDecodeError:
+            raise StudyError(f"{self.path}: not UTF-8 text, not a study file (TOML)") from None
+        except tomllib.TOMLDecodeError as e:
+            raise StudyError(f"{self.path}: not valid TOML: {e}") from None
+
+    def _read(self, doc):
         here = self.path.resolve().parent
-        with open(self.path, "rb") as f:
-            doc = tomllib.load(f)
-        unknown = set(doc) - {"study", "parameters", "series", "axes"}
-        if unknown:
-            raise ValueError(f"{self.path}: unknown tables {sorted(unknown)}")
+        for name in doc:
+            if name not in TABLES:
+                raise ValueError(f"unknown table [{name}]{did_you_mean(name, TABLES)}; tables: "
+                                 f"{', '.join(f'[{t}]' for t in TABLES)}")
+            _table(doc[name], f"[{name}]")
         head = doc.get("study", {})
-        _known(head, {"title", "fmu", "horizon", "step"}, "[study]")
+        _known(head, STUDY_KEYS, "[study]")
+        for key in ("title", "fmu"):
+            if key in head and not isinstance(head[key], str):
+                raise ValueError(f"[study] {key} must be a string, not {head[key]!r}")
         self.title = head.get("title", self.path.stem)
         try:
             self.fmu = locate.fmu_path((here / head["fmu"]).resolve() if "fmu" in head else None)
         except locate.NotBuilt as e:
-            raise ValueError(f"{e} (set fmu = ... in [study])") from None
-        self.fmu_bytes = self.fmu.read_bytes()
-        self.model = ModelParameters(self.fmu)
-        self.step = duration(head.get("step", 1.0), "step")
-        self.horizon = duration(head["horizon"], "horizon") if "horizon" in head else None
+            raise ValueError(f"[study] fmu: {e} (set fmu = ... in [study])") from None
+        try:
+            self.fmu_bytes = self.fmu.read_bytes()
+            self.model = ModelParameters(self.fmu)
+        except Exception as e:  # noqa: BLE001 - an unreadable file or no FMU: fmpy's words
+            raise ValueError(f"[study] fmu: {self.fmu} is not an FMU ({' '.join(str(e).split())})") from None
+        self.step = _positive_duration(head.get("step", 1.0), "[study] step")
+        self.horizon = _positive_duration(head["horizon"], "[study] horizon") if "horizon" in head else None
         self.files = {}  # sha256 -> bytes of files that String parameters name
-        self.parameters = {name: self._parameter(name, value, here) for name, value in doc.get("parameters", {}).items()}
-        self.series = {name: self._series(name, spec, here) for name, spec in doc.get("series", {}).items()}
+        self.parameters = {}
+        for name, value in doc.get("parameters", {}).items():
+            if name in SPECIAL_AXES:
+                raise ValueError(f"[parameters] {name} is an axis, not an FMU parameter: give it under "
+                                 f"[axes] ({name} = [...])")
+            self.parameters[name] = self._parameter(name, value, here, "[parameters]")
+        self.series = {name: self._series(name, _table(spec, f"[series.{name}]"), here)
+                       for name, spec in doc.get("series", {}).items()}
         if not self.series:
-            raise ValueError(f"{self.path}: no [series.NAME] table")
+            raise ValueError("no [series.NAME] table: give a generated wind year (generator = \"wind\") "
+                             "or a file")
         self.axes = self._axes(doc.get("axes", {}), here)
-        self._scenarios = None
 
-    def _parameter(self, name, value, here):
+    def valid_axes(self):
+        """The names an [axes] key may have: the special axes and the FMU's parameters."""
+        return list(SPECIAL_AXES) + [p for p in self.model.variables if p not in self.model.RESERVED]
+
+    def _parameter(self, name, value, here, where):
         """The text aem-run sets; a String parameter naming a file ships the file by its hash."""
-        text = self.model.text(name, value)
+        try:
+            text = self.model.text(name, value)
+        except ValueError as e:
+            raise ValueError(f"{where} {e}") from None
         if self.model.variables[name].type == "String" and text:
-            data = (here / text).read_bytes()
+            try:
+                data = (here / text).read_bytes()
+            except OSError as e:
+                raise ValueError(f"{where} {name} = {value!r}: cannot read {here / text} ({e.strerror})") from None
             digest = hashlib.sha256(data).hexdigest()
             self.files[digest] = data
             return f"file:sha256:{digest}"
         return text
 
     def _series(self, name, spec, here):
+        where = f"[series.{name}]"
         spec = dict(spec)
-        if spec.pop("generator", None) == "wind":
-            _known(spec, {"climate"}, f"[series.{name}]")
-            try:
-                return GeneratedWind(name, spec.pop("climate", {}))
-            except TypeError as e:
-                raise ValueError(f"series {name}: climate: {e}") from None
+        if "generator" in spec:
+            generator = spec.pop("generator")
+            if generator != "wind":
+                raise ValueError(f"{where} generator = {generator!r}: the one generator is \"wind\"")
+            _known(spec, ("climate",), where)
+            climate = _table(spec.pop("climate", {}), f"{where} climate")
+            known = [f.name for f in fields(WindClimate)]
+            for key, value in climate.items():
+                if key not in known:
+                    raise ValueError(f"{where} climate: unknown field {key!r}{did_you_mean(key, known)}; "
+                                     f"fields: {', '.join(known)}")
+                if not _number(value):
+                    raise ValueError(f"{where} climate: {key} = {value!r} is not a number")
+            return GeneratedWind(name, climate)
         if "file" not in spec:
-            raise ValueError(f"series {name}: give generator = \"wind\" or file = ...")
-        _known(spec, {"file", "time", "column", "interpolation", "rating"}, f"[series.{name}]")
+            raise ValueError(f"{where}: give generator = \"wind\" or file = \"...\"")
+        _known(spec, FILE_SERIES_KEYS, where)
+        for key in ("file", "time", "column", "interpolation"):
+            if key in spec and not isinstance(spec[key], str):
+                raise ValueError(f"{where} {key} must be a string, not {spec[key]!r}")
+        if "column" not in spec:
+            raise ValueError(f"{where}: give column = \"NAME [unit]\" (W, kW, MW or %)")
+        path = here / spec.pop("file")
+        if not path.is_file():
+            raise ValueError(f"{where} file: no file {path}")
         rating = spec.pop("rating", None)
-        series = SeriesFile(name, here / spec.pop("file"), **spec)
+        try:
+            series = SeriesFile(name, path, **spec)
+        except ValueError as e:
+            raise ValueError(f"{where} {e}") from None
         if rating is not None:
-            series.rating = power(rating, f"series {name} rating")
+            series.rating = power(rating, f"{where} rating")
+            if not series.rating > 0:
+                raise ValueError(f"{where} rating: {rating!r} is not a positive power")
         return series
 
     def _axes(self, spec, here):
         """[(column, [(label, settings)])]: settings are what the value sets in a scenario."""
         axes = []
         for name, values in spec.items():
+            where = f"[axes] {name}"
             if isinstance(values, dict):  # named cases
-                cases = [(case, {p: self._parameter(p, v, here) for p, v in settings.items()})
-                         for case, settings in values.items()]
+                if not values:
+                    raise ValueError(f"[axes.{name}]: give at least one named case")
+                cases = []
+                for case, settings in values.items():
+                    settings = _table(settings, f"[axes.{name}] {case}")
+                    if not settings:
+                        raise ValueError(f"[axes.{name}] {case}: set at least one FMU parameter")
+                    cases.append((case, {p: self._parameter(p, v, here, f"[axes.{name}] {case}:")
+                                         for p, v in settings.items()}))
                 axes.append((name, [(label, {"parameters": s}) for label, s in cases]))
-            elif not isinstance(values, list) or not values:
-                raise ValueError(f"axis {name}: give a non-empty list or a table of named cases")
-            elif name == "series":
+                continue
+            valid = self.valid_axes()
+            if name not in valid:
+                if name in self.model.RESERVED:
+                    raise ValueError(f"{where}: {name} is set by aem-study from the series (power or setpoint)")
+                parameters = valid[len(SPECIAL_AXES):]
+                raise ValueError(
+                    f"[axes]: unknown axis {name!r}{did_you_mean(name, valid)}; valid axes: "
+                    f"{', '.join(SPECIAL_AXES)}, a table of named cases [axes.NAME], or an FMU parameter "
+                    f"({', '.join(parameters)})")
+            if not isinstance(values, list) or not values:
+                raise ValueError(f"{where}: give a non-empty list of values (or a table of named cases), "
+                                 f"not {values!r}")
+            if name == "series":
                 missing = [v for v in values if v not in self.series]
                 if missing:
-                    raise ValueError(f"axis series: no series {missing}; series: {sorted(self.series)}")
+                    raise ValueError(f"{where}: no series {missing[0]!r}{did_you_mean(missing[0], self.series)}; "
+                                     f"series: {', '.join(self.series)}")
                 axes.append(("series", [(v, {"series": v}) for v in values]))
             elif name == "seed":
-                axes.append(("seed", [(int(v), {"seed": int(v)}) for v in values]))
+                bad = [v for v in values if not isinstance(v, int) or isinstance(v, bool) or v < 0]
+                if bad:
+                    raise ValueError(f"{where}: {bad[0]!r} is not a seed (an integer, 0 or more)")
+                axes.append(("seed", [(v, {"seed": v}) for v in values]))
             elif name == "hub_size":
+                bad = [v for v in values if not _number(v) or not 0 < v < float("inf")]
+                if bad:
+                    raise ValueError(f"{where}: {bad[0]!r} is not a hub size (a positive number, % of the "
+                                     f"series' rating)")
                 axes.append(("hub size [%]", [(float(v), {"hub_size": float(v) / 100.0}) for v in values]))
             elif name in ("step", "horizon"):
                 col = "step [s]" if name == "step" else "horizon [h]"
-                axes.append((col, [(duration(v, name) / (1 if name == "step" else 3600), {name: duration(v, name)})
-                                   for v in values]))
+                seconds = [_positive_duration(v, where) for v in values]
+                axes.append((col, [(t / (1 if name == "step" else 3600), {name: t}) for t in seconds]))
             else:
                 axes.append((self.model.column(name),
-                             [(self.model.label(name, v), {"parameters": {name: self._parameter(name, v, here)}})
+                             [(self.model.label(name, v), {"parameters": {name: self._parameter(name, v, here, "[axes]")}})
                               for v in values]))
         if not any(col == "series" for col, _ in axes):
             axes.insert(0, ("series", [(name, {"series": name}) for name in self.series]))

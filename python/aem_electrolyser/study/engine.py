@@ -51,8 +51,9 @@ def bundle(study, runner=None):
 
 
 def run(study, out_dir, *, scheduler=None, workers=None, serial=False, runner=None,
-        retry_failed=False, stream=None):
-    """Runs what is missing; returns {key: record} of every scenario of the study that has one."""
+        retry_failed=False, stream=None, quiet=False):
+    """Runs what is missing; returns {key: record} of every scenario of the study that has one.
+    Progress on `stream` (stderr) unless `quiet` (study.progress)."""
     store = Store(out_dir)
     scenarios = study.scenarios()
     records = {}
@@ -61,7 +62,7 @@ def run(study, out_dir, *, scheduler=None, workers=None, serial=False, runner=No
         if record is not None and (record["status"] == "done" or not retry_failed):
             records[s.key] = record
     todo = [s for s in scenarios if s.key not in records]
-    progress = Progress(len(scenarios), len(records), **({"stream": stream} if stream else {}))
+    progress = Progress(len(scenarios), len(records), quiet=quiet, **({"stream": stream} if stream else {}))
     try:
         if todo:
             payload = bundle(study, runner)

@@ -5,6 +5,8 @@ from pathlib import Path
 
 from fmpy import read_model_description
 
+from aem_electrolyser.cli import did_you_mean
+
 
 @dataclass(frozen=True)
 class Variable:
@@ -35,7 +37,9 @@ class ModelParameters:
             raise ValueError(f"{name} is set by aem-study from the series (power or setpoint)")
         var = self.variables.get(name)
         if var is None:
-            raise ValueError(f"the FMU has no parameter {name!r}; parameters: {', '.join(sorted(self.variables))}")
+            names = [n for n in self.variables if n not in self.RESERVED]
+            raise ValueError(f"the FMU has no parameter {name!r}{did_you_mean(name, names)}; "
+                             f"parameters: {', '.join(names)}")
         return var
 
     def column(self, name):
@@ -59,7 +63,7 @@ class ModelParameters:
                 return str(var.items[value])
             if isinstance(value, int) and not isinstance(value, bool) and value in var.items.values():
                 return str(value)
-            raise ValueError(f"{name} = {value!r}: one of {', '.join(var.items)}")
+            raise ValueError(f"{name} = {value!r}: one of {', '.join(var.items)}{did_you_mean(value, var.items)}")
         raise ValueError(f"{name} = {value!r} is not {'an' if var.type[0] in 'IE' else 'a'} {var.type}")
 
     def label(self, name, value):

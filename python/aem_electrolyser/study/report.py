@@ -4,6 +4,14 @@ axes (`plots/`), and `summary.txt`, the page a planner reads first.
 The CSV's floats are written by pandas' shortest round-trip repr: `read_csv` below (or pandas
 with `float_precision="round_trip"`) reads back the same doubles. Replicate axes (`seed`,
 `series`) are averaged over in the plots, best cases and pivot, their min-max shown as spread.
+
+What the report does not let pass silently:
+- a best case comes with what it took: its grid import (MWh and share of the energy drawn), the
+  wind it left (MWh and share of the wind offered) and its starts (per module and in all);
+- a categorical x axis (dispatch = equal, sequential; seeds; series) is drawn as grouped bars,
+  never as a line sloping from one category to the next (plot_kind);
+- a KPI or axis with one value over all scenarios is not plotted; the summary names it and its
+  value under "Constant over the scenarios".
 """
 from __future__ import annotations
 
@@ -28,6 +36,10 @@ REPLICATES = ("seed", "series")
 MAX_LINES = 12
 #: KPIs with a best case in the summary, and whether larger is better.
 BEST = {"hydrogen [kg]": True, "wind not absorbed [MWh]": False}
+#: The KPIs a best case's caveats are made of (kpis.KPIS).
+GRID, DRAWN = "grid import [MWh]", "energy drawn [MWh]"
+LOST, OFFERED = "wind not absorbed [MWh]", "reference energy [MWh]"
+STARTS, MODULES = "starts per module [1]", "modules [1]"
 PIVOT_KPI = "hydrogen [kg]"
 LABELS = ["scenario", "status", "message"]
 
@@ -47,16 +59,41 @@ def _numeric(column: pd.Series) -> bool:
     return pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column)
 
 
+def constant_axes(table: pd.DataFrame, axes: list) -> list:
+    """The axes with one value over all scenarios (not drawn: stated in the summary)."""
+    return [a for a in axes if table[a].nunique(dropna=False) <= 1]
+
+
 def layout(table: pd.DataFrame, axes: list) -> Layout:
     """x: the first numeric varying non-replicate axis, else the first varying one (categories);
-    if only replicates vary, the first of them; if nothing varies, the first axis."""
-    varying = [a for a in axes if table[a].nunique(dropna=False) > 1]
+    if only replicates vary, the first of them; if nothing varies, the first axis. x is
+    categorical unless it is a numeric axis of choices that varies (a seed or a series is a
+    name: seeds 1, 2, 3 are not a scale)."""
+    varying = [a for a in axes if a not in constant_axes(table, axes)]
     choices = [a for a in varying if a not in REPLICATES]
     candidates = choices or [a for a in varying if a in REPLICATES] or axes[:1]
     x = next((a for a in candidates if _numeric(table[a])), candidates[0] if candidates else None)
     return Layout(x, [a for a in choices if a != x],
                   [a for a in varying if a in REPLICATES and a != x],
-                  x is None or not _numeric(table[x]))
+                  x is None or not _numeric(table[x]) or x in REPLICATES or x not in varying)
+
+
+def plot_kind(lay: Layout) -> str:
+    """"bars" (grouped by the line axes) for a categorical x, "lines" for a numeric one: a line
+    joins only values of a scale."""
+    return "bars" if lay.categorical else "lines"
+
+
+def constant_kpis(table: pd.DataFrame) -> dict:
+    """KPI -> its one value, for the KPIs with the same value in every done scenario (at least
+    one; a KPI without values, or without one in some scenario, is not constant)."""
+    done = table[table["status"] == "done"]
+    out = {}
+    for kpi in [k for k in KPIS if k in done]:
+        values = done[kpi].astype(float)
+        if len(values) and values.notna().all() and values.min() == values.max():
+            out[kpi] = values.iloc[0]
+    return out
 
 
 def ordered(table: pd.DataFrame, axes: list) -> pd.DataFrame:
@@ -82,6 +119,7 @@ def _fmt(value) -> str:
         return str(value)
     if math.isnan(value):
         return "–"
+    value = value + 0.0  # -0.0 reads as 0
     return f"{value:,.0f}" if 1e6 <= abs(value) < 1e15 else f"{value:.6g}"
 
 
@@ -132,16 +170,24 @@ def _panels(n: int):
     return fig, list(axs.flat[:n])
 
 
-def _draw(ax, x, line: pd.DataFrame, label, i: int, spread: bool, band: bool):
-    """One line of means; the min-max over replicates as a band (numeric x) or error bars."""
+def _draw(ax, x, line: pd.DataFrame, label, i: int, spread: bool):
+    """One line of means over a numeric x; the min-max over replicates as a band."""
     color = f"C{i % 10}"
     ax.plot(x, line["mean"], marker="o", ms=4, color=color, ls="-" if i < 10 else "--",
             label=label)
-    if spread and band:
+    if spread:
         ax.fill_between(x, line["min"], line["max"], color=color, alpha=0.2, lw=0)
-    elif spread:
-        ax.errorbar(x, line["mean"], yerr=[line["mean"] - line["min"], line["max"] - line["mean"]],
-                    fmt="none", ecolor=color, capsize=3)
+
+
+def _bars(ax, x, line: pd.DataFrame, label, i: int, n: int, spread: bool):
+    """Group member i of n at each category position x: a bar of the mean, the min-max over
+    replicates as an error bar."""
+    line = line.assign(at=np.asarray(x, dtype=float) + (i - (n - 1) / 2) * 0.8 / n).dropna(subset=["mean"])
+    ax.bar(line["at"], line["mean"], width=0.8 / n * 0.92, color=f"C{i % 10}", label=label,
+           hatch=None if i < 10 else "//")
+    if spread:
+        ax.errorbar(line["at"], line["mean"], yerr=[line["mean"] - line["min"], line["max"] - line["mean"]],
+                    fmt="none", ecolor="0.2", capsize=3, lw=1)
 
 
 def _split(table: pd.DataFrame, means: pd.DataFrame, lay: Layout) -> list:
@@ -161,18 +207,24 @@ def _x(line: pd.DataFrame, lay: Layout, cats: Optional[list]):
     return line[lay.x].map(cats.index) if lay.x else [0] * len(line)
 
 
-def plot_kpi(table: pd.DataFrame, lay: Layout, kpi: str, title: str, path: Path) -> Path:
-    """`kpi` against x, one line per combination of the line axes (subplots by the first line
-    axis past MAX_LINES combinations), mean and spread over the replicates."""
+def figure(table: pd.DataFrame, lay: Layout, kpi: str, title: str):
+    """The matplotlib figure of `kpi` against x (see plot_kind): one line, or one bar of each
+    group, per combination of the line axes (subplots by the first line axis past MAX_LINES
+    combinations), mean and spread over the replicates. The caller closes it."""
     means = stats(table, lay, kpi)
-    cats = (sorted(table[lay.x].unique()) if lay.x else ["all"]) if lay.categorical else None
+    cats = (sorted(table[lay.x].unique()) if lay.x else ["all"]) if plot_kind(lay) == "bars" else None
     parts = _split(table, means, lay)
     fig, axs = _panels(len(parts))
     for ax, (name, part, inner) in zip(axs, parts):
-        lines = part.groupby(inner, sort=True) if inner else [(None, part)]
+        lines = list(part.groupby(inner, sort=True)) if inner else [(None, part)]
         for i, (key, line) in enumerate(lines):
+            key = key if key is None or isinstance(key, tuple) else (key,)
             label = None if key is None else _where(dict(zip(inner, key)), inner)
-            _draw(ax, _x(line, lay, cats), line, label, i, bool(lay.replicates), cats is None)
+            if cats is None:
+                _draw(ax, _x(line, lay, cats), line, label, i, bool(lay.replicates))
+            else:
+                _bars(ax, _x(line, lay, cats), line, label, i, len(lines), bool(lay.replicates))
+        ax.set_axisbelow(True)
         if cats:
             ax.set_xticks(range(len(cats)), [_fmt(c) for c in cats])
             ax.set_xlim(-0.5, len(cats) - 0.5)
@@ -184,8 +236,16 @@ def plot_kpi(table: pd.DataFrame, lay: Layout, kpi: str, title: str, path: Path)
     spread = f"\nmean over {', '.join(lay.replicates)}; spread: min–max" if lay.replicates else ""
     fig.suptitle(f"{kpi} — {title}{spread}", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    return fig
+
+
+def plot_kpi(table: pd.DataFrame, lay: Layout, kpi: str, title: str, path: Path) -> Path:
+    """The figure of `kpi` written to `path` (PNG)."""
+    fig = figure(table, lay, kpi, title)
+    try:
+        fig.savefig(path, dpi=100)
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -220,19 +280,66 @@ def _ranges(done: pd.DataFrame) -> list:
     return out
 
 
+def _share(part: float, whole: float) -> str:
+    return f"{100 * part / whole:.3g} %" if whole else "–"
+
+
+def caveats(rows: pd.DataFrame) -> list:
+    """What a configuration's result took, from its done scenarios `rows` (means over them):
+    grid import with its share of the energy drawn, wind not absorbed with its share of the
+    wind offered, starts per module and in all. A KPI without values (a setpoint series has no
+    wind) is left out."""
+    mean = {k: rows[k].astype(float).mean() if k in rows else np.nan
+            for k in (GRID, DRAWN, LOST, OFFERED, STARTS, MODULES)}
+    out = []
+    if not pd.isna(mean[GRID]):
+        of = "" if pd.isna(mean[DRAWN]) else \
+            f", {_share(mean[GRID], mean[DRAWN])} of the {_fmt(mean[DRAWN])} {_unit(DRAWN)} drawn"
+        out.append(f"grid import: {_fmt(mean[GRID])} {_unit(GRID)}{of}")
+    if not pd.isna(mean[LOST]):
+        of = "" if pd.isna(mean[OFFERED]) else \
+            f", {_share(mean[LOST], mean[OFFERED])} of the {_fmt(mean[OFFERED])} {_unit(OFFERED)} offered"
+        out.append(f"wind not absorbed: {_fmt(mean[LOST])} {_unit(LOST)}{of}")
+    if not pd.isna(mean[STARTS]):
+        total = "" if pd.isna(mean[MODULES]) else \
+            f", {_fmt(float((rows[STARTS].astype(float) * rows[MODULES].astype(float)).mean()))} in all"
+        out.append(f"starts: {_fmt(mean[STARTS])} per module{total}")
+    return out
+
+
 def _best(table: pd.DataFrame, lay: Layout) -> list:
-    """The configuration (mean over the replicates) with the most hydrogen, the least wind lost."""
-    out = [f"Best cases (mean{_over(lay)}):" if lay.replicates else "Best cases:"]
+    """The configuration (mean over the replicates) with the most hydrogen, the least wind lost,
+    each with its caveats (grid import, wind not absorbed, starts)."""
+    out = [f"Best cases (mean{_over(lay)}), with what they took:" if lay.replicates
+           else "Best cases, with what they took:"]
+    done = table[table["status"] == "done"]
+    keys = [a for a in (lay.x, *lay.lines) if a]
     for kpi, larger in BEST.items():
         means = stats(table, lay, kpi).dropna(subset=["mean"]) if kpi in table else []
         if not len(means):
             out.append(f"  {kpi}: no values")
             continue
         best = means.loc[means["mean"].idxmax() if larger else means["mean"].idxmin()]
-        where = _where(best, [a for a in (lay.x, *lay.lines) if a])
+        where = _where(best, keys)
         where = f"at {where}" if where else "(one scenario)"
         out.append(f"  {'largest' if larger else 'smallest'} {kpi}: "
                    f"{_fmt(best['mean'])} {_unit(kpi)} {where}")
+        rows = done[np.logical_and.reduce([done[a] == best[a] for a in keys])] if keys else done
+        out += [f"    {line}" for line in caveats(rows)]
+    return out
+
+
+def _constants(table: pd.DataFrame, axes: list) -> list:
+    """The axes and KPIs with one value over all scenarios, which have no plot."""
+    axes = constant_axes(table, axes)
+    kpis = constant_kpis(table)
+    if not axes and not kpis:
+        return []
+    out = ["Constant over the scenarios (not plotted):"]
+    out += [f"  {a} = {_fmt(table[a].iloc[0])}" for a in axes]
+    if (table["status"] == "done").sum() == 1:
+        return out + ["  every KPI (one scenario done: its values are the ranges above)"]
+    out += [f"  {k} = {_fmt(float(v))} {_unit(k)}".rstrip() for k, v in kpis.items()]
     return out
 
 
@@ -249,13 +356,14 @@ def _pivot_text(table: pd.DataFrame, axes: list, lay: Layout) -> list:
 
 
 def summary(table: pd.DataFrame, axes: list, title: str) -> str:
-    """The plain-text summary: counts, axes, failures, KPI ranges, best cases and the pivot."""
+    """The plain-text summary: counts, axes, failures, KPI ranges, what is constant, best cases
+    with their caveats and the pivot."""
     lay = layout(table, axes)
     done = table[table["status"] == "done"]
     head = [f"Study: {title}", f"Scenarios: {len(done)} done, {len(table) - len(done)} failed "
             f"({len(table)} in all)", "", "Axes:" if axes else "Axes: none"]
     head += [f"  {_axis_values(table, a)}" for a in axes]
-    parts = [head, _failures(table, axes), _ranges(done), _best(table, lay),
+    parts = [head, _failures(table, axes), _ranges(done), _constants(table, axes), _best(table, lay),
              _pivot_text(table, axes, lay)]
     return "\n\n".join("\n".join(p) for p in parts if p) + "\n"
 
@@ -263,7 +371,8 @@ def summary(table: pd.DataFrame, axes: list, title: str) -> str:
 def write_report(table: pd.DataFrame, axes: list[str], out_dir: Path, title: str,
                  plots: bool = True) -> dict[str, Path]:
     """Write kpis.parquet, kpis.csv, summary.txt and (if `plots`) plots/<slug>.png for each
-    KPI with a finite value into out_dir; returns {path relative to out_dir: path}."""
+    KPI with a finite value that is not constant (constant_kpis) into out_dir; returns {path
+    relative to out_dir: path}."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     table = ordered(table, list(axes))
@@ -275,7 +384,8 @@ def write_report(table: pd.DataFrame, axes: list[str], out_dir: Path, title: str
     if plots:
         lay = layout(table, list(axes))
         done = table[table["status"] == "done"]
-        for kpi in [k for k in KPIS if k in table]:
+        constant = constant_kpis(table)
+        for kpi in [k for k in KPIS if k in table and k not in constant]:
             if np.isfinite(done[kpi].to_numpy(dtype=float)).any():
                 (out / "plots").mkdir(exist_ok=True)
                 name = f"plots/{slug(kpi)}.png"

@@ -7,9 +7,11 @@ from pathlib import Path
 
 
 class Store:
-    def __init__(self, out_dir: Path):
+    def __init__(self, out_dir: Path, create=True):
+        """The store in out_dir/scenarios (made unless `create` is false: reading only)."""
         self.dir = Path(out_dir) / "scenarios"
-        self.dir.mkdir(parents=True, exist_ok=True)
+        if create:
+            self.dir.mkdir(parents=True, exist_ok=True)
 
     def _path(self, key):
         return self.dir / f"{key}.json"
