@@ -41,8 +41,12 @@ def versions():
     cargo = tomllib.loads((ROOT / "Cargo.toml").read_text(encoding="utf-8"))["workspace"]["package"]["version"]
     model = ET.parse(ROOT / "modelDescription.xml").getroot().get("version")
     docs = re.search(r'<span id="version">([^<]+)</span>', (ROOT / "documentation" / "index.html").read_text("utf-8"))
+    citation = re.search(r"(?m)^version: *\"?([^\"\s]+)", (ROOT / "CITATION.cff").read_text("utf-8"))
+    changelog = re.search(r"(?m)^## \[?([0-9][^\]\s]*)", (ROOT / "CHANGELOG.md").read_text("utf-8"))
     return {"Cargo.toml [workspace.package]": cargo, "modelDescription.xml": model,
-            "documentation/index.html": docs.group(1) if docs else None}
+            "documentation/index.html": docs.group(1) if docs else None,
+            "CITATION.cff": citation.group(1) if citation else None,
+            "CHANGELOG.md (latest release)": changelog.group(1) if changelog else None}
 
 
 def step(what, argv, **env):
