@@ -67,7 +67,7 @@ fn parse_args() -> Result<Args> {
 fn read_schedule(path: &PathBuf) -> Result<Vec<(f64, f64)>> {
     let text = std::fs::read_to_string(path)?;
     let mut lines = text.lines();
-    if !lines.next().is_some_and(|h| h.trim() == "time,setpoint") {
+    if lines.next().is_none_or(|h| h.trim() != "time,setpoint") {
         return Err("the schedule must start with the header time,setpoint".into());
     }
     let mut rows: Vec<(f64, f64)> = Vec::new();

@@ -2,7 +2,7 @@
 //! RFC 3339 timestamps, directories of daily files, a module column, and errors that name the
 //! file and line instead of panicking.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use aem_identify::columns::{Channel, ColumnMap};
 use aem_identify::read::{self, BadRow, ReadOptions};
@@ -16,7 +16,7 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-fn write(dir: &PathBuf, name: &str, text: &str) -> PathBuf {
+fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let path = dir.join(name);
     std::fs::write(&path, text).unwrap();
     path
@@ -246,7 +246,7 @@ fn a_module_column_splits_one_file_into_modules() {
 fn unreadable_inputs_are_errors_with_the_path_not_panics() {
     let dir = scratch("input_errors");
     let missing = dir.join("nope.csv");
-    let err = read::expand_inputs(&[missing.clone()])
+    let err = read::expand_inputs(std::slice::from_ref(&missing))
         .unwrap_err()
         .to_string();
     assert!(err.contains("nope.csv"), "{err}");

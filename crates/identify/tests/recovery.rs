@@ -48,7 +48,7 @@ fn ten_days_recover_the_parameters_and_a_held_out_day() {
     // A file that is not CSV in the directory is ignored.
     std::fs::write(dir.join("notes.txt"), "not data").unwrap();
 
-    let files = read::expand_inputs(&[dir.clone()]).unwrap();
+    let files = read::expand_inputs(std::slice::from_ref(&dir)).unwrap();
     assert_eq!(files.len(), 10);
     assert!(
         files.windows(2).all(|w| w[0] < w[1]),

@@ -167,7 +167,7 @@ fn rotation_starts_the_module_with_fewest_hours() {
     let mut hours: Vec<f64> = hub
         .groups()
         .iter()
-        .flat_map(|g| std::iter::repeat(g.running).take(g.count as usize))
+        .flat_map(|g| std::iter::repeat_n(g.running, g.count as usize))
         .collect();
     hours.sort_by(f64::total_cmp);
     assert_eq!(hours, vec![700.0, 700.0, 700.0], "each module ran once");
@@ -322,7 +322,7 @@ fn bad_combinations_are_refused_with_the_value() {
     };
     assert!(Hub::new(flat, HubConfig::default(), Demand::Power(1e3)).is_err());
     let mut hub = Hub::new(p, HubConfig::default(), Demand::Setpoint(70.0)).unwrap();
-    let before = hub.totals().clone();
+    let before = *hub.totals();
     assert!(hub.step(Demand::Power(f64::NAN), 1.0).is_err());
     assert!(hub.step(Demand::Setpoint(70.0), 0.0).is_err());
     assert!(hub.step(Demand::Setpoint(70.0), 1e308).is_err());
