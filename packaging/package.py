@@ -42,6 +42,7 @@ import sys
 import zipfile
 from pathlib import Path
 
+import docs_reference
 from platforms import PLATFORMS, TARGET, build, platform, release_dir
 
 from aem_electrolyser.cli import quiet_on_closed_stdout, writable
@@ -184,7 +185,10 @@ def entries(model_description: bytes, platforms, native=False):
     docs = ROOT / "documentation"
     for path in sorted(docs.rglob("*")):
         if path.is_file():
-            yield f"documentation/{path.relative_to(docs).as_posix()}", path.read_bytes()
+            data = path.read_bytes()
+            if path == docs / "index.html":  # generated from the model description packed here
+                data = docs_reference.fmu_documentation(model_description).encode("utf-8")
+            yield f"documentation/{path.relative_to(docs).as_posix()}", data
 
 
 def write_fmu(out: Path, files):

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Shrink a matplotlib PNG for docs/ by quantising it to a small palette (no dithering).
 
-    python scripts/shrink_png.py out/step_responses.png docs/step_responses.png [--colors 64]
+    python scripts/shrink_png.py out/step_responses.png docs/images/step_responses.png [--colors 64]
 """
 import argparse
 from pathlib import Path

@@ -22,9 +22,10 @@ phase .venv/bin/ruff check --quiet python tests bench packaging fuzz scripts
 phase cargo fmt --check
 phase .venv/bin/python packaging/release.py
 phase .venv/bin/python packaging/platforms.py test
+phase env NO_MKDOCS_2_WARNING=1 .venv/bin/mkdocs build --strict --quiet -d target/site
 phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadscope -m "not serial" --durations=15
 phase .venv/bin/python -m pytest tests/python -q -m serial --durations=10
 # 15 s a target here: a check that every harness finds nothing in reach; the long runs are in
-# ROBUSTNESS.md (SECONDS_PER_TARGET=3600 or RUNS=10000000 bash scripts/fuzz.sh).
+# docs/robustness.md (SECONDS_PER_TARGET=3600 or RUNS=10000000 bash scripts/fuzz.sh).
 SECONDS_PER_TARGET="${SECONDS_PER_TARGET:-15}" phase bash scripts/fuzz.sh
 echo "test.sh: every test passed in $SECONDS s" >&2

@@ -1,5 +1,5 @@
 //! Every kind of bad input, called for real through the C ABI: the status and the logged
-//! message each one gets. The table in ROBUSTNESS.md (between the markers) must equal what
+//! message each one gets. The table in docs/robustness.md (between the markers) must equal what
 //! this test produces, so the document cannot drift from the FMU; run with
 //! `UPDATE_ROBUSTNESS=1 cargo test --test robustness_report` to rewrite it.
 //!
@@ -724,10 +724,10 @@ fn table() -> String {
 #[test]
 fn robustness_md_lists_what_every_bad_input_gets() {
     let generated = table();
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("ROBUSTNESS.md");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs").join("robustness.md");
     let text = std::fs::read_to_string(&path).unwrap_or_default();
     let (Some(a), Some(b)) = (text.find(BEGIN), text.find(END)) else {
-        panic!("ROBUSTNESS.md lacks the markers {BEGIN} … {END}");
+        panic!("docs/robustness.md lacks the markers {BEGIN} … {END}");
     };
     let current = &text[a + BEGIN.len()..b];
     let wanted = format!("\n{generated}");
@@ -735,9 +735,9 @@ fn robustness_md_lists_what_every_bad_input_gets() {
         if std::env::var_os("UPDATE_ROBUSTNESS").is_some() {
             let updated = format!("{}{BEGIN}{wanted}{}", &text[..a], &text[b..]);
             std::fs::write(&path, updated)
-                .unwrap_or_else(|e| panic!("cannot write ROBUSTNESS.md: {e}"));
+                .unwrap_or_else(|e| panic!("cannot write docs/robustness.md: {e}"));
         } else {
-            panic!("ROBUSTNESS.md is out of date; rerun with UPDATE_ROBUSTNESS=1. Generated:\n{generated}");
+            panic!("docs/robustness.md is out of date; rerun with UPDATE_ROBUSTNESS=1. Generated:\n{generated}");
         }
     }
 }

@@ -186,8 +186,9 @@ def writable(path):
 def writable_folder(folder):
     """`folder` once it exists and takes a new file (made and removed again)."""
     folder = Path(folder)
-    if folder.exists() and not folder.is_dir():
-        sys.exit(f"{program_name()}: error: --out: {folder} is a file; --out names a folder")
+    if folder.exists() and not folder.is_dir():  # a bad argument, as aem-study's check says too
+        print(f"{program_name()}: error: --out: {folder} is a file; --out names a folder", file=sys.stderr)
+        sys.exit(2)
     try:
         folder.mkdir(parents=True, exist_ok=True)
         tempfile.TemporaryFile(dir=folder).close()

@@ -29,7 +29,7 @@ def load(path: Path):
     with path.open(newline="") as f:
         rows = list(csv.DictReader(f))
     if not rows:
-        raise SystemExit(f"{path}: no rows")
+        raise ValueError(f"{path}: no rows")
     columns = {}
     for key in rows[0]:
         columns[key] = np.array([float(r[key]) if r[key] != "" else np.nan for r in rows])
@@ -42,7 +42,7 @@ def main(argv=None):
     parser.add_argument("png", type=Path, help="the figure to write")
     args = parser.parse_args(argv)
     if not args.csv.is_file():
-        parser.error(f"csv: {args.csv} does not exist")
+        parser.error(f"csv: {args.csv} {'is a folder' if args.csv.is_dir() else 'does not exist'}; give the CSV file")
     cli.writable(args.png)
     d = load(args.csv)
     hours = (d["time"] - d["time"][0]) / 3600.0

@@ -1,8 +1,8 @@
-/* The bad-input list of ROBUSTNESS.md, called through a loaded FMU library: each case starts
+/* The bad-input list of docs/robustness.md, called through a loaded FMU library: each case starts
  * from a fresh instance in its stage, makes the bad call and prints one table row
  *     | what | stage | status | first logged message |
  * exactly as tests/robustness_report.rs writes them for the in-process library. A test runs
- * this on the linux64 and the win64 binary and requires rows equal to ROBUSTNESS.md's. The
+ * this on the linux64 and the win64 binary and requires rows equal to docs/robustness.md's. The
  * one row whose message is the operating system's own text (a missing file) is left out. */
 #include "bad_calls.h"
 

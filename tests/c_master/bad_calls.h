@@ -1,4 +1,4 @@
-/* The bad-input list of ROBUSTNESS.md, run against a loaded FMU (see bad_calls.c). */
+/* The bad-input list of docs/robustness.md, run against a loaded FMU (see bad_calls.c). */
 #ifndef AEM_C_MASTER_BAD_CALLS_H
 #define AEM_C_MASTER_BAD_CALLS_H
 

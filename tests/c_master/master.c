@@ -11,7 +11,7 @@
  *       master derives from DIR (to try the forms a master may pass).
  *
  *   master --fmu-dir DIR --bad-calls table
- *       Prints the bad-input table of ROBUSTNESS.md as this library answers it (bad_calls.c).
+ *       Prints the bad-input table of docs/robustness.md as this library answers it (bad_calls.c).
  *
  *   master --fmu-dir DIR --cycles N [--inject leak|invalid-read]
  *       N instantiate/step/free cycles for a memory checker (see cycle()). --inject adds one

@@ -63,7 +63,7 @@ def test_the_quick_start_demo_warns_only_of_its_excursion(fmu_path, tmp_path):
     messages = result.stderr.splitlines()
     assert messages == ["[WARNING] setpoint = 40 % is outside the operating window [60, 100] %; "
                         "the module runs at 60 % until it returns"], messages
-    last = read_rows(tmp_path / "demo.csv")[-1]
+    last = read_rows(tmp_path / "demo" / "step_schedule.csv")[-1]
     assert float(last["current [A]"]) == pytest.approx(PAPER["gain"] * 100.0, rel=1e-3)
 
 

@@ -1,7 +1,7 @@
 """The packaged FMU on every desk: its linux64 binary needs glibc 2.17 at most, and its win64
 DLL, run under Wine (Debian's wine64) by the C master cross-compiled with mingw-w64, gives the
 linux64 binary's outputs bit for bit, the same memory-cycle counts, the same answers to every
-bad call of ROBUSTNESS.md, and understands Windows paths and file URIs. aem-identify.exe
+bad call of docs/robustness.md, and understands Windows paths and file URIs. aem-identify.exe
 (packaging/platforms.py) identifies the same parameters as the Linux build, from LF and CRLF
 files alike.
 
@@ -146,7 +146,7 @@ def test_every_bad_call_gets_the_documented_answer_on_both_platforms(masters, fm
     linux = run([masters[0], "--fmu-dir", fmu_dir, "--bad-calls", "table"])
     windows = wine(masters[1], "--fmu-dir", fmu_dir, "--bad-calls", "table")
     assert windows == linux
-    documented = set((ROOT / "ROBUSTNESS.md").read_text().splitlines())
+    documented = set((ROOT / "docs" / "robustness.md").read_text().splitlines())
     rows = linux.strip().splitlines()[2:]
     undocumented = [row for row in rows if row not in documented]
     assert not undocumented, undocumented

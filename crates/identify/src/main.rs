@@ -43,10 +43,13 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Fit the parameters of one or more modules and print a Table-I-like report.
+    #[command(allow_negative_numbers = true)]
     Fit(FitArgs),
     /// Simulate identified parameters on a held-out day and report the RMSE.
+    #[command(allow_negative_numbers = true)]
     Validate(ValidateArgs),
     /// Write a synthetic campaign (daily CSV files at 1 Hz) with known parameters.
+    #[command(allow_negative_numbers = true)]
     Synthesize(SynthesizeArgs),
 }
 
@@ -252,8 +255,17 @@ fn check_usage(command: &Command) -> Result<(), String> {
             Err(format!("{what} {}: no such file or folder", path.display()))
         }
     };
+    let options = |input: &InputArgs| {
+        read_options(input, "module")
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    };
     match command {
         Command::Fit(args) => {
+            options(&args.input)?;
+            if args.cells == 0 {
+                return Err("--cells 0: the stack has at least one cell".into());
+            }
             if args.inputs.is_empty() && args.modules.is_empty() {
                 return Err(
                     "give the campaign's CSV files or folders (or --module ID=PATH)".into(),
@@ -263,12 +275,16 @@ fn check_usage(command: &Command) -> Result<(), String> {
                 exists("input", path)?;
             }
             for module in &args.modules {
-                if let Some((_, path)) = module.split_once('=') {
-                    exists("--module", &PathBuf::from(path))?;
+                match module.split_once('=') {
+                    Some((id, path)) if !id.trim().is_empty() && !path.is_empty() => {
+                        exists("--module", &PathBuf::from(path))?;
+                    }
+                    _ => return Err(format!("--module `{module}` must look like ID=PATH")),
                 }
             }
         }
         Command::Validate(args) => {
+            options(&args.input)?;
             exists("parameter file", &args.params)?;
             if args.days.is_empty() {
                 return Err("give the held-out day's CSV file(s) after the parameter file".into());

@@ -78,7 +78,21 @@ fn value_reference(import: &Fmi2Import, name: &str) -> Result<u32> {
 fn set_by_name(import: &Fmi2Import, fmu: &mut InstanceCS, name: &str, text: &str) -> Result<()> {
     let md = fmi::traits::FmiImport::model_description(import);
     let var = md.model_variables.variables.iter().find(|v| v.name == name);
-    let var = var.ok_or_else(|| format!("the FMU has no parameter {name}"))?;
+    let var = var.ok_or_else(|| {
+        let nearest = md
+            .model_variables
+            .variables
+            .iter()
+            .filter(|v| matches!(v.causality, Causality::Parameter | Causality::Input))
+            .map(|v| (strsim::jaro_winkler(&v.name, name), v.name.as_str()))
+            .max_by(|a, b| a.0.total_cmp(&b.0));
+        match nearest {
+            Some((score, near)) if score >= 0.8 => {
+                format!("--param: the FMU has no parameter {name} (did you mean {near}?)")
+            }
+            _ => format!("--param: the FMU has no parameter {name}"),
+        }
+    })?;
     if !matches!(var.causality, Causality::Parameter | Causality::Input) {
         return Err(format!(
             "{name} is an {} of the FMU, not a parameter",
@@ -179,7 +193,7 @@ pub fn module_rated_power(import: &Fmi2Import, parameters: &[(String, String)]) 
 /// Runs the scenario and returns the FMU's totals and, for a power reference, the sums.
 pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>)> {
     let import: Fmi2Import = fmi::import::from_path(fmu_path)
-        .map_err(|e| format!("cannot load {}: {e}", fmu_path.display()))?;
+        .map_err(|e| format!("--fmu {}: not an FMU that loads: {e}", fmu_path.display()))?;
     let h = scenario.step;
     let n = scenario.reference.len();
     if !(h > 0.0 && h.is_finite()) || n == 0 {

@@ -107,8 +107,21 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
         (None, None) => None,
         _ => return Err("--hub-size needs --source-rating, both > 0".into()),
     };
+    let fmu = fmu.ok_or("--fmu is required")?;
+    if !fmu.is_file() {
+        return Err(format!(
+            "--fmu {}: no such file (the FMU, a .fmu archive)",
+            fmu.display()
+        ));
+    }
+    if !is_zip(&fmu) {
+        return Err(format!(
+            "--fmu {}: not an FMU (not a zip archive)",
+            fmu.display()
+        ));
+    }
     let reference_path = reference.ok_or("--reference is required")?;
-    let reference = read_reference(&reference_path)?;
+    let reference = read_reference(&reference_path).map_err(|e| format!("--reference: {e}"))?;
     if reference.is_empty() {
         return Err(format!(
             "--reference {}: empty (one f64 per step)",
@@ -116,7 +129,7 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
         ));
     }
     Ok(Args {
-        fmu: fmu.ok_or("--fmu is required")?,
+        fmu,
         scenario: Scenario {
             parameters,
             input,
@@ -126,6 +139,19 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
             hub_size,
         },
     })
+}
+
+/// Whether a failure of the run is about an argument (`--fmu …`, `--param …`): exit status 2.
+fn error_names_an_argument(message: &str) -> bool {
+    message.starts_with("--fmu ") || message.starts_with("--param")
+}
+
+/// Whether `path` starts as a zip archive does ("PK\x03\x04"; an FMU is one).
+fn is_zip(path: &Path) -> bool {
+    let mut magic = [0u8; 4];
+    File::open(path)
+        .and_then(|mut f| f.read_exact(&mut magic))
+        .is_ok_and(|()| magic == *b"PK\x03\x04")
 }
 
 /// The options of aem-run.
@@ -222,7 +248,11 @@ fn main() {
             } else {
                 format!("{error}. The FMU: {text}")
             };
-            (json!({ "status": "failed", "message": message }), 1)
+            // The worker reads the JSON; a person reads this line. An FMU that does not load
+            // or a parameter it does not have is a bad argument found once the FMU is read.
+            eprintln!("aem-run: error: {message}");
+            let code = if error_names_an_argument(&message) { 2 } else { 1 };
+            (json!({ "status": "failed", "message": message }), code)
         }
     };
     println!("{report}");

@@ -25,6 +25,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 from aem_electrolyser.extras import require
 from aem_electrolyser import cli
+from aem_electrolyser.hub.messages import fmu_words, instantiate
 
 SIZES = [5, 10, 20, 30, 40]  # step sizes [% of nominal]
 TOP, BOTTOM = 100.0, 60.0  # start levels of negative and positive steps [%]
@@ -51,16 +52,17 @@ def simulate_steps(fmu, steps, duration, dt, quiet=True):
         for u0, u1 in cli.progress(steps, desc="step responses", unit="step", quiet=quiet):
             slave = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
                               modelIdentifier=md.coSimulation.modelIdentifier, instanceName="steps")
-            slave.instantiate()
-            slave.setupExperiment(startTime=t[0])
-            slave.setReal([vr["setpoint"]], [u0])  # starts in steady state at u0
-            slave.enterInitializationMode()
-            slave.exitInitializationMode()
-            current = [slave.getReal([vr["current"]])[0]]
-            for k in range(len(t) - 1):
-                slave.setReal([vr["setpoint"]], [u0 if t[k] < 0 else u1])
-                slave.doStep(currentCommunicationPoint=t[k], communicationStepSize=dt)
-                current.append(slave.getReal([vr["current"]])[0])
+            instantiate(slave, echo=True)
+            with fmu_words(f"the step from {u0:g} to {u1:g} %"):
+                slave.setupExperiment(startTime=t[0])
+                slave.setReal([vr["setpoint"]], [u0])  # starts in steady state at u0
+                slave.enterInitializationMode()
+                slave.exitInitializationMode()
+                current = [slave.getReal([vr["current"]])[0]]
+                for k in range(len(t) - 1):
+                    slave.setReal([vr["setpoint"]], [u0 if t[k] < 0 else u1])
+                    slave.doStep(currentCommunicationPoint=t[k], communicationStepSize=dt)
+                    current.append(slave.getReal([vr["current"]])[0])
             slave.terminate()
             slave.freeInstance()
             currents.append(np.array(current))

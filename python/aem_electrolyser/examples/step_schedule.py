@@ -8,14 +8,13 @@ against time), then prints a short table; the FMU's messages go to stderr. Steps
 down follow the two-exponential response of G(s); steps up are held to the 0.22 A/s ramp limit
 until the response catches up.
 """
-import contextlib
 import csv
-import sys
 
 import numpy as np
 from fmpy import read_model_description, simulate_fmu
 from aem_electrolyser.extras import require
 from aem_electrolyser import cli
+from aem_electrolyser.hub.messages import log_to_stderr, refusal
 
 
 #: (time [s], setpoint [%]): hold, step down, step up, leave the window, return.
@@ -43,11 +42,13 @@ def input_signal(model_description):
 
 def simulate(fmu):
     signal = input_signal(read_model_description(str(fmu)))
-    with contextlib.redirect_stdout(sys.stderr):  # the FMU's log is no report
+    try:  # the FMU's warnings go to stderr; a refusal ends in one error in its words
         return simulate_fmu(
             str(fmu), start_time=0.0, stop_time=STOP_TIME, step_size=1.0, output_interval=1.0,
-            input=signal, output=OUTPUTS,
+            input=signal, output=OUTPUTS, logger=log_to_stderr,
         )
+    except Exception as e:  # noqa: BLE001 - fmpy raises plain Exceptions
+        raise refusal(f"the simulation ({e})") from None
 
 
 def write_csv(result, path):

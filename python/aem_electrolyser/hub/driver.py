@@ -1,7 +1,7 @@
 """The electrolyser hub FMU driven step by step through fmpy's FMU2Slave (the examples, the
 mosaik and HELICS tests).
 
-    hub = HubFMU(nModules=25000, nModules=25000, dispatch=1, belowMinimum=0, powerInput=True)
+    hub = HubFMU(nModules=25000, dispatch=1, belowMinimum=0, powerInput=True)
     hub.initialize(powerReference=45e6)       # the hub starts in steady state for this input
     hub.step(1.0, powerReference=46e6)        # hold the reference over [t, t + 1 s]
     hub.get("hubPower", "hubEnergy")
@@ -16,7 +16,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
-from aem_electrolyser.hub.messages import callbacks, fmu_words
+from aem_electrolyser.hub.messages import fmu_words, instantiate
 from aem_electrolyser.locate import fmu_path as locate_fmu
 
 
@@ -31,7 +31,7 @@ class HubFMU:
         self._unzipdir = extract(str(fmu_path))
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=self._unzipdir,
                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance_name)
-        self.fmu.instantiate(loggingOn=False, callbacks=callbacks())
+        instantiate(self.fmu)
         self.fmu.setupExperiment(startTime=start_time)
         self.time = start_time
         self.initialized = False

@@ -6,6 +6,7 @@ A call the FMU refuses raises `FmuError` with the FMU's last message: an excepti
 argument, so that it crosses a process pool (pickling) intact, unlike fmpy's FMICallException.
 """
 import ctypes
+import sys
 from contextlib import contextmanager
 
 from fmpy.fmi1 import FMICallException
@@ -22,22 +23,48 @@ class FmuError(RuntimeError):
     """A call the FMU refused, in the FMU's own words (picklable: one string argument)."""
 
 
+LABELS = ("OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING")
+
+
 def _log(env, instance_name, status, category, message):
+    """Keeps the message; a refusal (fmi2Discard or worse) is kept for the exception it causes."""
     text = message.decode(errors="replace")
     MESSAGES[text] = MESSAGES.get(text, 0) + 1
     if status >= 2:
         _LAST_REFUSAL[0] = text
 
 
+def log_to_stderr(env, instance_name, status, category, message):
+    """A logger (fmpy's signature, e.g. simulate_fmu(logger=...)): the FMU's warnings and
+    information on stderr as fmpy prints them ("[WARNING] ..."); its refusals are kept for the
+    one-line error they end in, not printed twice."""
+    _log(env, instance_name, status, category, message)
+    if status < 2:
+        label = LABELS[status] if 0 <= status < len(LABELS) else str(status)
+        print(f"[{label}] {message.decode(errors='replace')}", file=sys.stderr, flush=True)
+
+
 _LOGGER = fmi2CallbackLoggerTYPE(_log)
+_ECHO = fmi2CallbackLoggerTYPE(log_to_stderr)
 
 
-def callbacks():
-    """fmi2CallbackFunctions whose logger records into MESSAGES."""
+def callbacks(echo=False):
+    """fmi2CallbackFunctions whose logger records into MESSAGES (and with echo, prints the
+    warnings as log_to_stderr does)."""
     functions = fmi2CallbackFunctions()
-    functions.logger = _LOGGER
+    functions.logger = _ECHO if echo else _LOGGER
     addLoggerProxy(ctypes.byref(functions))
     return functions
+
+
+def instantiate(slave, echo=False):
+    """slave.instantiate() (an fmpy FMU2Slave) with this module's logger; a refused instantiation
+    raises FmuError with the FMU's reason (fmpy's own exception says only that it failed)."""
+    _LAST_REFUSAL[0] = ""
+    try:
+        slave.instantiate(loggingOn=False, callbacks=callbacks(echo))
+    except Exception:  # noqa: BLE001 - fmpy raises a plain Exception here
+        raise refusal("to instantiate") from None
 
 
 def refusal(what):

@@ -17,7 +17,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
-from aem_electrolyser.hub.messages import MESSAGES, callbacks, fmu_words, refusal
+from aem_electrolyser.hub.messages import MESSAGES, fmu_words, instantiate, refusal
 from aem_electrolyser.locate import fmu_path as locate_fmu
 
 __all__ = ["Hub", "HubRunner", "MESSAGES"]
@@ -72,7 +72,7 @@ class HubRunner:
         t = np.asarray(t, float)
         fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
                         modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName="prequalification")
-        fmu.instantiate(loggingOn=False, callbacks=callbacks())
+        instantiate(fmu)
         try:
             with fmu_words(f"the hub ({self.hub.describe()})"):
                 return self._run(fmu, t, frequency, power_reference, parameters)

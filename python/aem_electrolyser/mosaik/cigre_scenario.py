@@ -45,6 +45,7 @@ Writes <out>/mosaik_cigre.csv (a row per sample t with the values at t, hub ener
 """
 import copy
 import csv
+import sys
 import tempfile
 import time as clock
 from pathlib import Path
@@ -60,6 +61,7 @@ from aem_electrolyser.wind.farm import farm_power
 
 with needs("mosaik", __name__):
     import mosaik
+    from loguru import logger
     import pandapower as pp
     import pandapower.networks as pn
     from mosaik.basic_simulators import OutputSimulator
@@ -322,6 +324,9 @@ def main(argv=None):
                         help=f"{' or '.join(DISPATCHES)} [default: equal]")
     cli.add_out_option(parser, "out", "mosaik_cigre.csv and mosaik_cigre.png")
     args = parser.parse_args(argv)
+    # mosaik's and the simulator's log (loguru): warnings on stderr, everything with --debug
+    logger.remove()
+    logger.add(sys.stderr, level="DEBUG" if args.debug else "WARNING")
     if args.duration < 2:
         parser.error(f"--duration: {args.duration} s; it must be at least 2 s")
     args.fmu = cli.resolve_fmu(parser, args)

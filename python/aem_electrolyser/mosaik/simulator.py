@@ -68,6 +68,9 @@ def _route(_env, instance_name, status, category, message):
     name, text = instance_name.decode(errors="replace"), message.decode(errors="replace")
     if name in _LIVE:
         _LIVE[name].messages.append((status, text))
+        if status >= 2:  # a refusal: the FMUError it raises carries the text (one report, not two)
+            logger.debug("FMU {} refused: {}", name, text)
+            return
     logger.log(LEVEL.get(status, "ERROR"), "FMU {} [{}] {}: {}", name, STATUS[status] if status < 6 else status,
                category.decode(errors="replace"), text)
 
@@ -147,7 +150,8 @@ class _Instance:
             raise FMUError(f"{self.eid}: {e.function} failed ({STATUS[e.status] if e.status < 6 else e.status}): "
                            f"{told}") from None
         except Exception as e:  # instantiate failing, a wrong type
-            raise FMUError(f"{self.eid}: {what}: {e}") from e
+            told = "; ".join(text.removeprefix(f"{what}: ") for status, text in self.messages if status >= 2)
+            raise FMUError(f"{self.eid}: {what}: {told or e}") from e
 
     def _value(self, name, value):
         v = self.vars[name]
