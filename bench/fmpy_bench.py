@@ -9,6 +9,7 @@ by the Rust benchmark, read from --rust), and the wall time of the same day simu
 straightforward Python/SciPy implementation (bench/python_reference.py), with the speed ratio
 to the Rust model and to the FMU through fmpy.
 """
+
 import argparse
 import json
 import platform
@@ -43,8 +44,9 @@ def fmpy_day(fmu_path, setpoints):
     md = read_model_description(str(fmu_path))
     unzipdir = extract(str(fmu_path))
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier,
-                    instanceName="bench")
+    fmu = FMU2Slave(
+        guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="bench"
+    )
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
@@ -85,7 +87,9 @@ def main():
     print(f"through fmpy, setReal+doStep+getReal(4):   {per_call_us:8.2f} us/step  (one day at 1 s: {fmpy_s:.2f} s)")
     print(f"FMU's own share of that call:               {100 * share:8.3f} %  ({rust['c_abi_ns']:.0f} ns in process)")
     print(f"Python/SciPy implementation, one day at 1 s: {python_s:8.3f} s")
-    print(f"Rust model, one day at 1 s:                  {rust['day_s']:8.4f} s  -> {python_s / rust['day_s']:.0f}x faster than Python/SciPy")
+    print(
+        f"Rust model, one day at 1 s:                  {rust['day_s']:8.4f} s  -> {python_s / rust['day_s']:.0f}x faster than Python/SciPy"
+    )
     print(f"FMU through fmpy vs Python/SciPy:            {python_s / fmpy_s:8.2f}x")
 
 

@@ -1,6 +1,7 @@
 """Benchmark: one day at 1 s of a 25 000-module `equal` hub following a wind-like power
 reference through fmpy (FMU2Slave: setReal, doStep, getReal every second), as issue 4 asks.
 Prints wall seconds per simulated day. Run by scripts/bench.sh after packaging the FMU."""
+
 import time
 from pathlib import Path
 
@@ -22,7 +23,9 @@ def main():
     unzipped = extract(str(FMU))
     i_rated = 0.534 * 100.0
     reference = wind_reference(DAY, MODULES * (35.75 + 0.1529 * i_rated) * i_rated)
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="bench")
+    fmu = FMU2Slave(
+        guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="bench"
+    )
     fmu.instantiate()
     fmu.setupExperiment(startTime=0.0)
     fmu.setInteger([vr["nModules"], vr["belowMinimum"]], [MODULES, 1])
@@ -41,8 +44,10 @@ def main():
     seconds = time.perf_counter() - start
     fmu.terminate()
     fmu.freeInstance()
-    print(f"fmpy equal hub, {MODULES} modules, one day at 1 s: {seconds:.2f} s/day "
-          f"({seconds / DAY * 1e6:.1f} us per step incl. setReal/doStep/getReal), energy {energy / 3.6e9:.1f} MWh")
+    print(
+        f"fmpy equal hub, {MODULES} modules, one day at 1 s: {seconds:.2f} s/day "
+        f"({seconds / DAY * 1e6:.1f} us per step incl. setReal/doStep/getReal), energy {energy / 3.6e9:.1f} MWh"
+    )
 
 
 if __name__ == "__main__":

@@ -15,6 +15,7 @@ responses come from scipy.signal.lfilter of the exact zero-order-hold discretisa
 running minimum (the FMU is exact between samples, this is not), standard errors from
 (J^T J)^-1 without the per-step clustering. Prints the parameters and the wall time per stage.
 """
+
 import argparse
 import csv
 import json
@@ -114,8 +115,7 @@ def find_steps(segs):
             if t0 - PRE_WINDOW < t[0] + SETTLE or t[e - 1] - t0 < MIN_RESPONSE:
                 continue
             pre0 = p + np.searchsorted(t[p:n], t0 - PRE_WINDOW)
-            steps.append(dict(seg=si, pre=(pre0, n), post=(n, e), size=b - a,
-                              pre_mean=seg["current"][pre0:n].mean()))
+            steps.append(dict(seg=si, pre=(pre0, n), post=(n, e), size=b - a, pre_mean=seg["current"][pre0:n].mean()))
     return steps
 
 
@@ -216,7 +216,7 @@ def fit_with_outliers(problem_for, steps, chosen, fun, x0):
     for s, ks in prob.by_seg.items():
         for j in ks:
             n = steps[j]["post"][1] - steps[j]["post"][0]
-            rms.append(math.sqrt(np.mean(r[off:off + n] ** 2)))
+            rms.append(math.sqrt(np.mean(r[off : off + n] ** 2)))
             off += n
     order = [j for ks in prob.by_seg.values() for j in ks]
     rms = np.array(rms)
@@ -292,7 +292,7 @@ def main(argv=None):
         return flags
 
     flags = on_ramp(x0, r0)
-    clean = [j for j in neg if not flags[steps[j]["seg"]][steps[j]["pre"][0]:steps[j]["post"][1]].any()]
+    clean = [j for j in neg if not flags[steps[j]["seg"]][steps[j]["pre"][0] : steps[j]["post"][1]].any()]
     linear = lambda prob, x: prob.residuals(*second_order(x))
     lin, neg_used = fit_with_outliers(lambda ch: StepProblem(segs, steps, ch), steps, clean, linear, x0)
     gain, taus, w = second_order(lin.x)
@@ -307,11 +307,18 @@ def main(argv=None):
     a = (tz - t1) / (t2 - t1)
     n_res = len(prob.residuals(gain, taus, w))
     aicc = lambda rss, k: n_res * math.log(rss / n_res) + 2 * k + 2 * k * (k + 1) / (n_res - k - 1)
-    o1 = least_squares(lambda x: prob.residuals(math.exp(x[0]), (math.exp(x[1]),), (1.0,)),
-                       [math.log(k2), math.log(a * t1 + (1 - a) * t2)], method="lm", ftol=1e-6)
-    o3 = least_squares(lambda x: prob.residuals(math.exp(x[0]), tuple(np.exp(x[1:4])), (x[4], x[5], 1 - x[4] - x[5])),
-                       [math.log(k2), math.log(t1), math.log(t2), math.log(math.sqrt(t1 * t2)), 0.95 * a, 0.95 * (1 - a)],
-                       method="lm", ftol=1e-6)
+    o1 = least_squares(
+        lambda x: prob.residuals(math.exp(x[0]), (math.exp(x[1]),), (1.0,)),
+        [math.log(k2), math.log(a * t1 + (1 - a) * t2)],
+        method="lm",
+        ftol=1e-6,
+    )
+    o3 = least_squares(
+        lambda x: prob.residuals(math.exp(x[0]), tuple(np.exp(x[1:4])), (x[4], x[5], 1 - x[4] - x[5])),
+        [math.log(k2), math.log(t1), math.log(t2), math.log(math.sqrt(t1 * t2)), 0.95 * a, 0.95 * (1 - a)],
+        method="lm",
+        ftol=1e-6,
+    )
     rss2 = float(np.sum(prob.residuals(gain, taus, w) ** 2))
     structure = {1: aicc(2 * o1.cost, 2), 2: aicc(rss2, 4), 3: aicc(2 * o3.cost, 6)}
     lap("structure check")
@@ -324,11 +331,18 @@ def main(argv=None):
     total = time.perf_counter() - t0
 
     print(f"rows: {sum(len(b['time']) for b in blocks)} used; bad: {bad}")
-    print(f"steps: {len(steps)} qualify; negative used {len(neg_used)} of {len(neg)}, positive used {len(pos_used)} of {len(pos)}")
+    print(
+        f"steps: {len(steps)} qualify; negative used {len(neg_used)} of {len(neg)}, positive used {len(pos_used)} of {len(pos)}"
+    )
     print(f"voltageIntercept {v0:.5g} V  ohmicResistance {r_ohm:.5g} Ohm")
-    print(f"gain {k2:.5g} A/%  tauZero {tz:.5g} s  tauPole1 {t1:.5g} s  tauPole2 {t2:.5g} s  (rel. SE {np.round(se, 5)})")
+    print(
+        f"gain {k2:.5g} A/%  tauZero {tz:.5g} s  tauPole1 {t1:.5g} s  tauPole2 {t2:.5g} s  (rel. SE {np.round(se, 5)})"
+    )
     print(f"rampUpLimit {math.exp(rfit.x[0]):.5g} A/s  h2Coefficient {c:.5g} Nl/(h.A)")
-    print("structure AICc - min: " + ", ".join(f"order {o}: {v - min(structure.values()):.4g}" for o, v in structure.items()))
+    print(
+        "structure AICc - min: "
+        + ", ".join(f"order {o}: {v - min(structure.values()):.4g}" for o, v in structure.items())
+    )
     for name, seconds in times.items():
         print(f"python: {name:<20} {1e3 * seconds:9.1f} ms")
     print(f"python: total {1e3 * total:9.1f} ms")

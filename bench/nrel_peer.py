@@ -35,6 +35,7 @@ with simulated time; the first hours look flat (about 20 s an hour here), so a s
 extrapolated with a fit a + b*hour of the per-hour wall times, UNDERESTIMATES the day (4 h gave
 485 s, the full day 1177 s). The output says EXTRAPOLATED when it is.
 """
+
 import argparse
 import os
 import platform
@@ -52,17 +53,24 @@ DAY, N_STACKS, PLANT_MW = 86_400, 60, 60.0
 
 
 def plant(control, initial_power_w):
-    options = load_modeling_yaml({  # fills in the schema's defaults
-        "electrolyzer": {
-            "dt": 1.0,
-            "initialize": True,
-            "initial_power_kW": initial_power_w / 1e3,
-            "supervisor": {"system_rating_MW": PLANT_MW, "n_stacks": N_STACKS},
-            "controller": {"control_type": control},
-            "stack": {"cell_type": "PEM", "max_current": 2000, "temperature": 60, "n_cells": 100,
-                      "stack_rating_kW": 1000},
+    options = load_modeling_yaml(
+        {  # fills in the schema's defaults
+            "electrolyzer": {
+                "dt": 1.0,
+                "initialize": True,
+                "initial_power_kW": initial_power_w / 1e3,
+                "supervisor": {"system_rating_MW": PLANT_MW, "n_stacks": N_STACKS},
+                "controller": {"control_type": control},
+                "stack": {
+                    "cell_type": "PEM",
+                    "max_current": 2000,
+                    "temperature": 60,
+                    "n_cells": 100,
+                    "stack_rating_kW": 1000,
+                },
+            }
         }
-    })
+    )
     options = calc_rated_system(options)
     return Supervisor.from_dict(options["electrolyzer"]), options["electrolyzer"]["stack"]
 
@@ -80,13 +88,19 @@ def hardware():
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--hours", type=float, default=24.0,
-                        help="simulated horizon (default the full day, 20 min or more here); < 24 extrapolates "
-                             "to a day, a lower bound")
+    parser.add_argument(
+        "--hours",
+        type=float,
+        default=24.0,
+        help="simulated horizon (default the full day, 20 min or more here); < 24 extrapolates to a day, a lower bound",
+    )
     parser.add_argument("--control", default="DecisionControl", help="the Supervisor's control_type")
-    parser.add_argument("--reference", type=Path,
-                        help="the plant's power reference [W] at 1 s, little-endian f64 (bench/study_bench.py "
-                             "gives its wind year); default bench/wind_reference.py's day")
+    parser.add_argument(
+        "--reference",
+        type=Path,
+        help="the plant's power reference [W] at 1 s, little-endian f64 (bench/study_bench.py "
+        "gives its wind year); default bench/wind_reference.py's day",
+    )
     args = parser.parse_args()
     n = int(round(args.hours * 3600))
     if args.reference:
@@ -95,8 +109,10 @@ def main():
         reference = wind_reference(DAY, PLANT_MW * 1e6)[:n]
 
     elec, stack = plant(args.control, reference[0])
-    print(f"NREL electrolyzer {version()}: {elec.n_stacks} PEM stacks of {elec.stack_rating_kW:.1f} kW "
-          f"({stack['n_cells']} cells, {stack['max_current']:.0f} A max), control {args.control}, dt 1 s")
+    print(
+        f"NREL electrolyzer {version()}: {elec.n_stacks} PEM stacks of {elec.stack_rating_kW:.1f} kW "
+        f"({stack['n_cells']} cells, {stack['max_current']:.0f} A max), control {args.control}, dt 1 s"
+    )
     print(f"  on {hardware()}")
 
     h2 = absorbed = curtailed = 0.0
@@ -126,13 +142,16 @@ def main():
         else:
             per_day = seconds * DAY / n
         how = f"EXTRAPOLATED, a lower bound, from {args.hours:g} h: {seconds:.1f} s, per hour {', '.join(f'{s:.1f}' for s in hour_s)} s"
-    print(f"  {args.hours:g} h: reference {ref_mwh:.2f} MWh, absorbed {absorbed / 3.6e9:.2f} MWh, "
-          f"curtailed {curtailed / 3.6e9:.2f} MWh, H2 {h2:.0f} kg")
+    print(
+        f"  {args.hours:g} h: reference {ref_mwh:.2f} MWh, absorbed {absorbed / 3.6e9:.2f} MWh, "
+        f"curtailed {curtailed / 3.6e9:.2f} MWh, H2 {h2:.0f} kg"
+    )
     print(f"nrel: {per_day:.1f} s/day ({how}; CPU {cpu:.1f} s of {seconds:.1f} s wall)")
 
 
 def version():
     import electrolyzer
+
     return electrolyzer.__version__
 
 

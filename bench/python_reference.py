@@ -5,12 +5,22 @@ limit applied per step, energy and hydrogen by the rectangle rule.
 This is what a user would write in a notebook; it is not exact between samples (the rate limit
 only acts at the sample instants), which is one reason the FMU exists.
 """
+
 import numpy as np
 from scipy.signal import cont2discrete, tf2ss
 
-PAPER = dict(gain=0.534, tauZero=95.371, tauPole1=1.995, tauPole2=113.568, rampUpLimit=0.22,
-             voltageIntercept=35.75, ohmicResistance=0.1529, h2Coefficient=9.6174,
-             minSetpoint=60.0, maxSetpoint=100.0)
+PAPER = dict(
+    gain=0.534,
+    tauZero=95.371,
+    tauPole1=1.995,
+    tauPole2=113.568,
+    rampUpLimit=0.22,
+    voltageIntercept=35.75,
+    ohmicResistance=0.1529,
+    h2Coefficient=9.6174,
+    minSetpoint=60.0,
+    maxSetpoint=100.0,
+)
 
 
 def simulate(setpoints, dt=1.0, p=PAPER):

@@ -16,6 +16,7 @@
 
     .venv/bin/python bench/study_bench.py [--days-per-scenario 60] [--scenarios 4] [--nrel-hours 1]
 """
+
 import argparse
 import json
 import os
@@ -76,9 +77,21 @@ def aem_run_seconds(reference):
     """Wall time [s] of aem-run over `reference` [W] with the hub of this benchmark."""
     path = OUT / "reference.f64"
     reference.astype("<f8").tofile(path)
-    args = [str(locate.binary("aem-run")), "--fmu", str(locate.fmu_path()),
-            "--reference", str(path), "--step", "1", "--param", "nModules=25000", "--param", "dispatch=2",
-            "--param", "belowMinimum=1"]
+    args = [
+        str(locate.binary("aem-run")),
+        "--fmu",
+        str(locate.fmu_path()),
+        "--reference",
+        str(path),
+        "--step",
+        "1",
+        "--param",
+        "nModules=25000",
+        "--param",
+        "dispatch=2",
+        "--param",
+        "belowMinimum=1",
+    ]
     started = time.perf_counter()
     done = subprocess.run(args, capture_output=True, text=True, check=True)
     seconds = time.perf_counter() - started
@@ -101,21 +114,28 @@ def main():
     wind = farm_power_year(365 * 86400.0, seed=1, threads=1)  # as a worker generates it
     generation = time.perf_counter() - started
     kpis = record["kpis"]
-    print(f"one year at 1 s, {kpis['modules [1]']} modules ({kpis['hub rated power [MW]']:.1f} MW), sequential, "
-          f"generated 64 MW wind (seed 1): {wall:.1f} s per scenario (aem-run {record['run time [s]']:.1f} s, "
-          f"wind year {generation:.1f} s); {kpis['hydrogen [kg]'] / 1e3:.0f} t H2, "
-          f"{kpis['starts per module [1]']:.1f} starts per module")
+    print(
+        f"one year at 1 s, {kpis['modules [1]']} modules ({kpis['hub rated power [MW]']:.1f} MW), sequential, "
+        f"generated 64 MW wind (seed 1): {wall:.1f} s per scenario (aem-run {record['run time [s]']:.1f} s, "
+        f"wind year {generation:.1f} s); {kpis['hydrogen [kg]'] / 1e3:.0f} t H2, "
+        f"{kpis['starts per module [1]']:.1f} starts per module"
+    )
     per_day = c_interface_day()
     if per_day is None:
-        print("  (no target/bench/hub.txt from cargo bench --bench hub: run scripts/bench.sh for the C-interface ratio)")
+        print(
+            "  (no target/bench/hub.txt from cargo bench --bench hub: run scripts/bench.sh for the C-interface ratio)"
+        )
     else:
         bench_day = wind_reference(86400, 60e6, seed=42)
         seconds, _ = aem_run_seconds(bench_day)
-        print(f"  the FMU through its C interface (cargo bench --bench hub, sequential): {per_day:.3f} s/day, "
-              f"{per_day * 365:.0f} s/year; aem-study/C interface: {wall / (per_day * 365):.2f} "
-              f"(target <= 1.5); aem-run on that benchmark's day: {seconds:.3f} s, ratio {seconds / per_day:.2f}")
+        print(
+            f"  the FMU through its C interface (cargo bench --bench hub, sequential): {per_day:.3f} s/day, "
+            f"{per_day * 365:.0f} s/year; aem-study/C interface: {wall / (per_day * 365):.2f} "
+            f"(target <= 1.5); aem-run on that benchmark's day: {seconds:.3f} s, ratio {seconds / per_day:.2f}"
+        )
 
     from distributed import LocalCluster
+
     started = time.perf_counter()
     with LocalCluster(n_workers=cores, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None):
         pass
@@ -125,15 +145,19 @@ def main():
     cluster, records = timed_run(throughput, OUT / "throughput-cluster", workers=cores)
     workers = len({r["worker"] for r in records.values()})
     n = args.scenarios
-    print(f"{n} scenarios of {args.days_per_scenario} days: serial {serial:.1f} s ({n / serial * 3600:.0f} "
-          f"scenarios/h), LocalCluster of {cores} worker processes {cluster:.1f} s incl. its start and stop "
-          f"({cluster_start:.1f} s alone) "
-          f"({n / cluster * 3600:.0f} scenarios/h, {workers} workers ran scenarios): speed-up {serial / cluster:.2f} "
-          f"on {cores} cores")
+    print(
+        f"{n} scenarios of {args.days_per_scenario} days: serial {serial:.1f} s ({n / serial * 3600:.0f} "
+        f"scenarios/h), LocalCluster of {cores} worker processes {cluster:.1f} s incl. its start and stop "
+        f"({cluster_start:.1f} s alone) "
+        f"({n / cluster * 3600:.0f} scenarios/h, {workers} workers ran scenarios): speed-up {serial / cluster:.2f} "
+        f"on {cores} cores"
+    )
     fixed = cluster - serial / workers
-    print(f"  the cluster run's fixed cost (start, imports on the workers, sending FMU and aem-run): about "
-          f"{fixed:.0f} s; year-long scenarios: {3600 / wall:.0f}/h serial, about {3600 / wall * workers:.0f}/h on "
-          f"the LocalCluster once that cost is spread over a study")
+    print(
+        f"  the cluster run's fixed cost (start, imports on the workers, sending FMU and aem-run): about "
+        f"{fixed:.0f} s; year-long scenarios: {3600 / wall:.0f}/h serial, about {3600 / wall * workers:.0f}/h on "
+        f"the LocalCluster once that cost is spread over a study"
+    )
 
     peer = ROOT / ".venv-nrel" / "bin" / "python"
     if not peer.is_file():
@@ -141,14 +165,22 @@ def main():
         return
     path = OUT / "wind_year.f64"
     wind[: int(args.nrel_hours * 3600)].astype("<f8").tofile(path)
-    done = subprocess.run([str(peer), str(ROOT / "bench" / "nrel_peer.py"), "--hours", str(args.nrel_hours),
-                           "--reference", str(path)], capture_output=True, text=True, check=True)
+    done = subprocess.run(
+        [str(peer), str(ROOT / "bench" / "nrel_peer.py"), "--hours", str(args.nrel_hours), "--reference", str(path)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     match = re.search(r"EXTRAPOLATED, a lower bound, from [0-9.]+ h: ([0-9.]+) s", done.stdout)
-    measured = float(match.group(1)) if match else float(re.search(r"^nrel: ([0-9.]+) s/day", done.stdout, re.M).group(1))
+    measured = (
+        float(match.group(1)) if match else float(re.search(r"^nrel: ([0-9.]+) s/day", done.stdout, re.M).group(1))
+    )
     peer_year = measured / args.nrel_hours * 8760
-    print(f"NREL electrolyzer (60 x 1 MW PEM stacks) on the first {args.nrel_hours:g} h of the same wind year: "
-          f"{measured:.1f} s, extrapolated {peer_year:.0f} s/year (a lower bound); ratio to aem-study's scenario "
-          f"{peer_year / wall:.0f}x")
+    print(
+        f"NREL electrolyzer (60 x 1 MW PEM stacks) on the first {args.nrel_hours:g} h of the same wind year: "
+        f"{measured:.1f} s, extrapolated {peer_year:.0f} s/year (a lower bound); ratio to aem-study's scenario "
+        f"{peer_year / wall:.0f}x"
+    )
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@
 
 Needs target/fmu/AemElectrolyser.fmu and target/release/aem-identify (scripts/test.sh builds both).
 """
+
 import json
 import shutil
 import subprocess
@@ -25,18 +26,39 @@ ROOT = Path(__file__).resolve().parent.parent
 CORPUS = ROOT / "fuzz" / "corpus"
 FMU = locate.fmu_path()
 IDENTIFY = locate.binary("aem-identify")
-TABLE_I = {"gain": (0.534, "A/%"), "tauZero": (95.371, "s"), "tauPole1": (1.995, "s"), "tauPole2": (113.568, "s"),
-           "rampUpLimit": (0.22, "A/s"), "voltageIntercept": (35.75, "V"), "ohmicResistance": (0.1529, "Ohm"),
-           "h2Coefficient": (9.6174, "Nl/(h.A)"), "nominalCurrent": (53.35, "A"), "minSetpoint": (60.0, "%"),
-           "maxSetpoint": (100.0, "%")}
+TABLE_I = {
+    "gain": (0.534, "A/%"),
+    "tauZero": (95.371, "s"),
+    "tauPole1": (1.995, "s"),
+    "tauPole2": (113.568, "s"),
+    "rampUpLimit": (0.22, "A/s"),
+    "voltageIntercept": (35.75, "V"),
+    "ohmicResistance": (0.1529, "Ohm"),
+    "h2Coefficient": (9.6174, "Nl/(h.A)"),
+    "nominalCurrent": (53.35, "A"),
+    "minSetpoint": (60.0, "%"),
+    "maxSetpoint": (100.0, "%"),
+}
 
 
 def parameter_file(scales):
-    modules = [{"module": f"M{k}", "parameters": {name: {"value": v * s if name != "maxSetpoint" else v, "unit": u,
-                                                         "standardError": 0.001, "poorlyDetermined": False,
-                                                         "source": "identified"}
-                                                  for name, (v, u) in TABLE_I.items()},
-                "statistics": {"rowsRead": 1000}} for k, s in enumerate(scales)]
+    modules = [
+        {
+            "module": f"M{k}",
+            "parameters": {
+                name: {
+                    "value": v * s if name != "maxSetpoint" else v,
+                    "unit": u,
+                    "standardError": 0.001,
+                    "poorlyDetermined": False,
+                    "source": "identified",
+                }
+                for name, (v, u) in TABLE_I.items()
+            },
+            "statistics": {"rowsRead": 1000},
+        }
+        for k, s in enumerate(scales)
+    ]
     return {"generator": "seeds", "modules": modules}
 
 
@@ -51,8 +73,9 @@ def states(tmp):
     params.write_text(json.dumps(parameter_file([1.0, 1.02])))
     out = []
     for hub in (False, True):
-        fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier,
-                        instanceName="seed")
+        fmu = FMU2Slave(
+            guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="seed"
+        )
         fmu.instantiate()
         fmu.setupExperiment(startTime=0.0)
         if hub:
@@ -88,8 +111,9 @@ def main():
         for k, scales in enumerate(([1.0], [0.98, 1.0, 1.03], [1.0, 0.5])):
             (CORPUS / "parameter_file" / f"file{k}.json").write_text(json.dumps(parameter_file(scales), indent=1))
         for name, extra in (("seconds", []), ("rfc3339", ["--rfc3339"])):
-            subprocess.run([IDENTIFY, "synthesize", tmp / name, "--days", "1", "--broken", *extra],
-                           check=True, capture_output=True)
+            subprocess.run(
+                [IDENTIFY, "synthesize", tmp / name, "--days", "1", "--broken", *extra], check=True, capture_output=True
+            )
             lines = (tmp / name / "day01.csv").read_text().splitlines()
             (CORPUS / "identify_csv" / f"{name}.csv").write_bytes(b"\x00" + ("\n".join(lines[:40]) + "\n").encode())
         lines = (tmp / "seconds" / "day01.csv").read_text().splitlines()

@@ -27,6 +27,7 @@ are the exact integrals of P and F/3600.
 Standard library and aem_electrolyser.cli only (the FMU's start values are read from its model
 description).
 """
+
 import argparse
 import math
 import shutil
@@ -89,7 +90,9 @@ class ClosedForm:
     def falling(self, t):
         """Current [A] at t in [t1, t2] after the step u0 -> u1 at t1."""
         s = t - self.t1
-        return self.k * self.u1 + self.k * (self.u0 - self.u1) * (self.a * math.exp(-s / self.tp1) + self.b * math.exp(-s / self.tp2))
+        return self.k * self.u1 + self.k * (self.u0 - self.u1) * (
+            self.a * math.exp(-s / self.tp1) + self.b * math.exp(-s / self.tp2)
+        )
 
     def current(self, t):
         if t <= self.t1:
@@ -104,14 +107,21 @@ class ClosedForm:
         q2 = self.i0**2 * min(t, self.t1)
         if t > self.t1:
             s = min(t, self.t2) - self.t1
-            y, amp1, amp2 = self.k * self.u1, self.k * (self.u0 - self.u1) * self.a, self.k * (self.u0 - self.u1) * self.b
+            y, amp1, amp2 = (
+                self.k * self.u1,
+                self.k * (self.u0 - self.u1) * self.a,
+                self.k * (self.u0 - self.u1) * self.b,
+            )
             g1, g2 = -math.expm1(-s / self.tp1), -math.expm1(-s / self.tp2)
             tau12 = self.tp1 * self.tp2 / (self.tp1 + self.tp2)
             q += y * s + amp1 * self.tp1 * g1 + amp2 * self.tp2 * g2
-            q2 += (y * y * s + 2 * y * (amp1 * self.tp1 * g1 + amp2 * self.tp2 * g2)
-                   + amp1**2 * self.tp1 / 2 * -math.expm1(-2 * s / self.tp1)
-                   + amp2**2 * self.tp2 / 2 * -math.expm1(-2 * s / self.tp2)
-                   + 2 * amp1 * amp2 * tau12 * -math.expm1(-s / tau12))
+            q2 += (
+                y * y * s
+                + 2 * y * (amp1 * self.tp1 * g1 + amp2 * self.tp2 * g2)
+                + amp1**2 * self.tp1 / 2 * -math.expm1(-2 * s / self.tp1)
+                + amp2**2 * self.tp2 / 2 * -math.expm1(-2 * s / self.tp2)
+                + 2 * amp1 * amp2 * tau12 * -math.expm1(-s / tau12)
+            )
         if t > self.t2:
             s, i = t - self.t2, self.i_ramp_start
             q += i * s + self.r * s * s / 2
@@ -139,7 +149,8 @@ def write_model_folder(folder, fmu, reference):
     lines = [header] + [",".join(repr(x) for x in row) for row in reference]
     (folder / f"{MODEL}_ref.csv").write_text("\n".join(lines) + "\n", encoding="utf-8")
     (folder / f"{MODEL}_ref.opt").write_text(
-        f"StartTime,{START!r}\nStopTime,{STOP!r}\nStepSize,{STEP!r}\nRelTol,1e-06\n", encoding="utf-8")
+        f"StartTime,{START!r}\nStopTime,{STOP!r}\nStepSize,{STEP!r}\nRelTol,1e-06\n", encoding="utf-8"
+    )
     (folder / "ReadMe.txt").write_text(
         "AEM electrolyser module (Omtveit et al., ISGT 2026) as an FMI 2.0 co-simulation FMU.\n"
         "Input: setpoint [%] 90 % until 10 s, 65 % until 700 s, then 100 % (a falling step, which\n"
@@ -148,7 +159,8 @@ def write_model_folder(folder, fmu, reference):
         "K(tz s + 1)/((tp1 s + 1)(tp2 s + 1)) and the ramp; exact integrals for energy and hydrogen),\n"
         "computed by packaging/cross_check.py of the aem-electrolyser-fmu repository, not by the FMU.\n"
         "The FMU integrates exactly: any step size that lands on 10 s and 700 s gives the same values.\n",
-        encoding="utf-8")
+        encoding="utf-8",
+    )
 
 
 def main(argv=None):

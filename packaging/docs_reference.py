@@ -23,6 +23,7 @@ index.html of an FMU whose model description differs from the repository's (iden
 values, Integer enumerations). Standard library only (MkDocs is imported by the hook functions
 alone), so package.py can import it.
 """
+
 import argparse
 import html
 import os
@@ -44,9 +45,14 @@ THIS = "packaging/docs_reference.py"
 # --- the model description ------------------------------------------------------------------------
 
 TYPES = ("Real", "Integer", "Boolean", "String", "Enumeration")
-CAUSALITIES = (("input", "Inputs"), ("output", "Outputs"), ("parameter", "Parameters"),
-               ("calculatedParameter", "Calculated parameters"), ("local", "Locals"),
-               ("independent", "Independent"))
+CAUSALITIES = (
+    ("input", "Inputs"),
+    ("output", "Outputs"),
+    ("parameter", "Parameters"),
+    ("calculatedParameter", "Calculated parameters"),
+    ("local", "Locals"),
+    ("independent", "Independent"),
+)
 
 
 @dataclass
@@ -88,7 +94,7 @@ class Model:
     description: str
     variables: list
     enumerations: dict
-    units: list          # (name, base unit text, [(display unit, factor)])
+    units: list  # (name, base unit text, [(display unit, factor)])
     experiment: dict
 
 
@@ -100,12 +106,23 @@ def read_model(model_description):
     variables = []
     for v in root.iter("ScalarVariable"):
         kind = next(child for child in v if child.tag in TYPES)
-        variables.append(Variable(
-            name=v.get("name"), value_reference=v.get("valueReference"),
-            causality=v.get("causality", "local"), variability=v.get("variability", "continuous"),
-            initial=v.get("initial", ""), type=kind.tag, declared_type=kind.get("declaredType", ""),
-            unit=kind.get("unit", ""), display_unit=kind.get("displayUnit", ""), start=kind.get("start"),
-            min=kind.get("min", ""), max=kind.get("max", ""), description=v.get("description", "")))
+        variables.append(
+            Variable(
+                name=v.get("name"),
+                value_reference=v.get("valueReference"),
+                causality=v.get("causality", "local"),
+                variability=v.get("variability", "continuous"),
+                initial=v.get("initial", ""),
+                type=kind.tag,
+                declared_type=kind.get("declaredType", ""),
+                unit=kind.get("unit", ""),
+                display_unit=kind.get("displayUnit", ""),
+                start=kind.get("start"),
+                min=kind.get("min", ""),
+                max=kind.get("max", ""),
+                description=v.get("description", ""),
+            )
+        )
     enumerations = {}
     for t in root.iter("SimpleType"):
         e = t.find("Enumeration")
@@ -115,21 +132,32 @@ def read_model(model_description):
     units = []
     for u in root.iter("Unit"):
         base = u.find("BaseUnit")
-        exponents = " ".join(f"{k}{'' if v == '1' else '^' + v}" for k, v in (base.attrib if base is not None else {}).items()
-                             if k not in ("factor", "offset"))
+        exponents = " ".join(
+            f"{k}{'' if v == '1' else '^' + v}"
+            for k, v in (base.attrib if base is not None else {}).items()
+            if k not in ("factor", "offset")
+        )
         factor = base.get("factor") if base is not None else None
         base_text = " · ".join(x for x in (factor, exponents) if x) or "1"
         displays = [(d.get("name"), d.get("factor", "1")) for d in u.iter("DisplayUnit")]
         units.append((u.get("name"), base_text, displays))
     experiment = dict(root.find("DefaultExperiment").attrib) if root.find("DefaultExperiment") is not None else {}
-    return Model(name=root.get("modelName"), version=root.get("version"), fmi_version=root.get("fmiVersion"),
-                 description=root.get("description", ""), variables=variables, enumerations=enumerations,
-                 units=units, experiment=experiment)
+    return Model(
+        name=root.get("modelName"),
+        version=root.get("version"),
+        fmi_version=root.get("fmiVersion"),
+        description=root.get("description", ""),
+        variables=variables,
+        enumerations=enumerations,
+        units=units,
+        experiment=experiment,
+    )
 
 
 # --- the rows both renderers share ------------------------------------------------------------------
 # A cell is a list of fragments: ("text", s), ("code", s), ("link", s, anchor) or ("anchor", name)
 # (the variable's own anchor, rendered with its name as code).
+
 
 def item_name(model, variable, code):
     enumeration = model.enumerations.get(variable.declared_type)
@@ -175,13 +203,30 @@ def variable_row(model, v):
     elif v.declared_type:
         kind = [("text", f"{v.type} {v.declared_type}")]
     variability = v.variability + (f", initial {v.initial}" if v.initial else "")
-    return [[("anchor", v.name)], [("text", v.value_reference)], [("text", v.causality)],
-            [("text", variability)], kind, [("text", unit_text(v))], [("text", start_text(model, v))],
-            [("text", range_text(v))], [("text", v.description)]]
+    return [
+        [("anchor", v.name)],
+        [("text", v.value_reference)],
+        [("text", v.causality)],
+        [("text", variability)],
+        kind,
+        [("text", unit_text(v))],
+        [("text", start_text(model, v))],
+        [("text", range_text(v))],
+        [("text", v.description)],
+    ]
 
 
-VARIABLE_HEADER = ["name", "value reference", "causality", "variability", "type", "unit", "start", "range",
-                   "description"]
+VARIABLE_HEADER = [
+    "name",
+    "value reference",
+    "causality",
+    "variability",
+    "type",
+    "unit",
+    "start",
+    "range",
+    "description",
+]
 
 
 @dataclass
@@ -200,32 +245,49 @@ def sections(model):
     for causality, title in CAUSALITIES:
         chosen = [v for v in model.variables if v.causality == causality]
         if chosen:
-            out.append(Section(title, causality.lower() + "s", "", VARIABLE_HEADER,
-                               [variable_row(model, v) for v in chosen]))
+            out.append(
+                Section(title, causality.lower() + "s", "", VARIABLE_HEADER, [variable_row(model, v) for v in chosen])
+            )
     for e in model.enumerations.values():
         users = [v.name for v in model.variables if v.declared_type == e.name]
         intro = f"{e.description}." + (f" Declared type of {', '.join(users)}." if users else "")
         rows = [[[("text", i.value)], [("code", i.name)], [("text", i.description)]] for i in e.items]
-        out.append(Section(f"Enumeration {e.name}", enumeration_anchor(e.name), intro, ["code", "item", "description"],
-                           rows))
-    rows = [[[("code", name)], [("text", base)], [("text", ", ".join(f"{d} (× {f})" for d, f in displays))]]
-            for name, base, displays in model.units]
-    out.append(Section("Units", "units", "Base units in SI (factor · exponents); a display unit is the unit times "
-                       "its factor.", ["unit", "in SI base units", "display units"], rows))
+        out.append(
+            Section(f"Enumeration {e.name}", enumeration_anchor(e.name), intro, ["code", "item", "description"], rows)
+        )
+    rows = [
+        [[("code", name)], [("text", base)], [("text", ", ".join(f"{d} (× {f})" for d, f in displays))]]
+        for name, base, displays in model.units
+    ]
+    out.append(
+        Section(
+            "Units",
+            "units",
+            "Base units in SI (factor · exponents); a display unit is the unit times its factor.",
+            ["unit", "in SI base units", "display units"],
+            rows,
+        )
+    )
     return out
 
 
 def summary(model):
     """One sentence on the model and its default experiment."""
     e = model.experiment
-    experiment = (f" Default experiment: {e.get('startTime', '0')} s to {e.get('stopTime', '?')} s, "
-                  f"step {e.get('stepSize', '?')} s." if e else "")
+    experiment = (
+        f" Default experiment: {e.get('startTime', '0')} s to {e.get('stopTime', '?')} s, "
+        f"step {e.get('stepSize', '?')} s."
+        if e
+        else ""
+    )
     counts = {}
     for v in model.variables:
         counts[v.causality] = counts.get(v.causality, 0) + 1
     told = ", ".join(f"{n} {c}s" for c, n in counts.items())
-    return (f"{model.name} {model.version}, FMI {model.fmi_version} Co-Simulation: {len(model.variables)} "
-            f"variables ({told}).{experiment}")
+    return (
+        f"{model.name} {model.version}, FMI {model.fmi_version} Co-Simulation: {len(model.variables)} "
+        f"variables ({told}).{experiment}"
+    )
 
 
 # --- Markdown -----------------------------------------------------------------------------------
@@ -254,11 +316,16 @@ def md_cell(cell):
 
 def variables_markdown(model):
     """The site's page of the FMU's variables."""
-    lines = ["# FMU variables", "",
-             f"Generated from `modelDescription.xml` by `{THIS}` when the site is built; the FMU's own "
-             "documentation (`documentation/index.html`, [a copy here](fmu-documentation.html)) has the same tables "
-             "from the same generator. Each variable has its name as anchor (`variables.md#nModules`).", "",
-             md_text(summary(model)), ""]
+    lines = [
+        "# FMU variables",
+        "",
+        f"Generated from `modelDescription.xml` by `{THIS}` when the site is built; the FMU's own "
+        "documentation (`documentation/index.html`, [a copy here](fmu-documentation.html)) has the same tables "
+        "from the same generator. Each variable has its name as anchor (`variables.md#nModules`).",
+        "",
+        md_text(summary(model)),
+        "",
+    ]
     for s in sections(model):
         lines += [f"## {md_text(s.title)} {{ #{s.anchor} }}", ""]
         if s.intro:
@@ -272,6 +339,7 @@ def variables_markdown(model):
 
 
 # --- HTML ---------------------------------------------------------------------------------------
+
 
 def html_cell(cell):
     out = []
@@ -290,9 +358,11 @@ def html_cell(cell):
 
 def variables_html(model):
     """The generated part of documentation/index.html (between the markers, markers excluded)."""
-    lines = ['<h2 id="variables">Variables</h2>',
-             f"<p>Generated from <code>modelDescription.xml</code> by <code>{THIS}</code>. "
-             f"{html.escape(summary(model), quote=False)}</p>"]
+    lines = [
+        '<h2 id="variables">Variables</h2>',
+        f"<p>Generated from <code>modelDescription.xml</code> by <code>{THIS}</code>. "
+        f"{html.escape(summary(model), quote=False)}</p>",
+    ]
     for s in sections(model):
         lines.append(f'<h3 id="{s.anchor}">{html.escape(s.title)}</h3>')
         if s.intro:
@@ -317,14 +387,16 @@ def fmu_documentation(model_description=MODEL_DESCRIPTION, template=None):
     a, b = text.find(BEGIN), text.find(END)
     if a < 0 or b < a:
         raise ValueError(f"documentation/index.html lacks the markers {BEGIN} … {END}")
-    text = text[:a + len(BEGIN)] + "\n" + variables_html(model) + "\n" + text[b:]
+    text = text[: a + len(BEGIN)] + "\n" + variables_html(model) + "\n" + text[b:]
     by_name = {v.name: v for v in model.variables}
 
     def start(match):
         v = by_name.get(match.group(2))
         if v is None:
-            raise ValueError(f"documentation/index.html quotes the start of {match.group(2)}, "
-                             "which the model description does not have")
+            raise ValueError(
+                f"documentation/index.html quotes the start of {match.group(2)}, "
+                "which the model description does not have"
+            )
         value = start_text(model, v) + (f" {v.unit}" if v.unit and v.unit != "1" else "")
         return match.group(1) + html.escape(value, quote=False) + match.group(3)
 
@@ -337,17 +409,23 @@ def fmu_documentation(model_description=MODEL_DESCRIPTION, template=None):
 # --- the commands' --help -------------------------------------------------------------------------
 
 #: The site's pages that explain the commands, by their titles in the nav.
-GUIDES = {"getting-started.md": "Getting started", "hub.md": "Hub and dispatch", "identification.md": "Identification",
-          "studies.md": "Studies", "grid-services.md": "Grid services", "cosimulation.md": "Co-simulation",
-          "validation.md": "Validation and benchmarks"}
+GUIDES = {
+    "getting-started.md": "Getting started",
+    "hub.md": "Hub and dispatch",
+    "identification.md": "Identification",
+    "studies.md": "Studies",
+    "grid-services.md": "Grid services",
+    "cosimulation.md": "Co-simulation",
+    "validation.md": "Validation and benchmarks",
+}
 
 
 @dataclass
 class Command:
-    slug: str        # the page: reference/commands/<slug>.md
-    name: str        # as a user types it
-    argv: list       # after the interpreter
-    guide: str       # the site page that explains it (relative to docs/)
+    slug: str  # the page: reference/commands/<slug>.md
+    name: str  # as a user types it
+    argv: list  # after the interpreter
+    guide: str  # the site page that explains it (relative to docs/)
     what: str
 
 
@@ -362,50 +440,116 @@ def _module(module, *arguments):
 
 
 COMMANDS = [
-    Command("aem-study", "aem-study", _entry_point("aem-study", "aem_electrolyser.commands", "study", "--help"),
-            "studies.md", "year-long studies of hubs, serially or on Dask"),
-    Command("aem-prequalify", "aem-prequalify",
-            _entry_point("aem-prequalify", "aem_electrolyser.commands", "prequalify", "--help"),
-            "grid-services.md", "the frequency-reserve prequalification of a hub"),
-    Command("aem-identify", "aem-identify", _entry_point("aem-identify", "aem_electrolyser.native", "identify", "--help"),
-            "identification.md", "identification from operational data (Rust)"),
-    Command("aem-identify-fit", "aem-identify fit",
-            _entry_point("aem-identify", "aem_electrolyser.native", "identify", "fit", "--help"),
-            "identification.md", "fit the parameters of one or more modules"),
-    Command("aem-identify-validate", "aem-identify validate",
-            _entry_point("aem-identify", "aem_electrolyser.native", "identify", "validate", "--help"),
-            "identification.md", "identified parameters on a held-out day"),
-    Command("aem-identify-synthesize", "aem-identify synthesize",
-            _entry_point("aem-identify", "aem_electrolyser.native", "identify", "synthesize", "--help"),
-            "identification.md", "a synthetic campaign with known parameters"),
-    Command("aem-run", "aem-run", _entry_point("aem-run", "aem_electrolyser.native", "run", "--help"),
-            "studies.md", "one scenario of the hub FMU, the native master of aem-study (Rust)"),
-    *[Command(f"examples.{name}", f"python -m aem_electrolyser.examples.{name}",
-              _module(f"aem_electrolyser.examples.{name}", "--help"), guide, what)
-      for name, guide, what in [
-          ("step_schedule", "getting-started.md", "the demo: one module through a setpoint step schedule"),
-          ("step_responses", "validation.md", "the paper's step responses"),
-          ("validation_day", "validation.md", "identify on ten synthetic days, validate on the eleventh"),
-          ("wind_hub", "hub.md", "25 000 modules following a 64 MW wind farm"),
-          ("grid_cosim", "cosimulation.md", "the hub and the wind farm in TOPS's two-area system"),
-          ("generator_trip", "cosimulation.md", "a generator trip with the hub offering FCR-D up")]],
-    Command("mosaik.cigre_scenario", "python -m aem_electrolyser.mosaik.cigre_scenario",
-            _module("aem_electrolyser.mosaik.cigre_scenario", "--help"), "cosimulation.md",
-            "the hub on pandapower's CIGRE HV grid in mosaik"),
-    *[Command(f"helics.{name}", f"python -m aem_electrolyser.helics.{name}",
-              _module(f"aem_electrolyser.helics.{name}", "--help"), "cosimulation.md", what)
-      for name, what in [("run", "the HELICS federation of wind farm, hub and grid, run together"),
-                         ("broker", "the federation's broker"),
-                         ("wind_federate", "the wind farm's federate"),
-                         ("hub_federate", "the hub's federate"),
-                         ("grid_federate", "the grid's federate")]],
-    Command("wind.farm", "python -m aem_electrolyser.wind.farm", _module("aem_electrolyser.wind.farm", "--help"),
-            "hub.md", "the seeded 1 s power series of a 64 MW wind farm"),
-    Command("wind.year", "python -m aem_electrolyser.wind.year", _module("aem_electrolyser.wind.year", "--help"),
-            "studies.md", "a generated year of the wind farm"),
-    Command("plot_validation", "python -m aem_electrolyser.plot_validation",
-            _module("aem_electrolyser.plot_validation", "--help"), "identification.md",
-            "measured against simulated, from aem-identify validate --csv"),
+    Command(
+        "aem-study",
+        "aem-study",
+        _entry_point("aem-study", "aem_electrolyser.commands", "study", "--help"),
+        "studies.md",
+        "year-long studies of hubs, serially or on Dask",
+    ),
+    Command(
+        "aem-prequalify",
+        "aem-prequalify",
+        _entry_point("aem-prequalify", "aem_electrolyser.commands", "prequalify", "--help"),
+        "grid-services.md",
+        "the frequency-reserve prequalification of a hub",
+    ),
+    Command(
+        "aem-identify",
+        "aem-identify",
+        _entry_point("aem-identify", "aem_electrolyser.native", "identify", "--help"),
+        "identification.md",
+        "identification from operational data (Rust)",
+    ),
+    Command(
+        "aem-identify-fit",
+        "aem-identify fit",
+        _entry_point("aem-identify", "aem_electrolyser.native", "identify", "fit", "--help"),
+        "identification.md",
+        "fit the parameters of one or more modules",
+    ),
+    Command(
+        "aem-identify-validate",
+        "aem-identify validate",
+        _entry_point("aem-identify", "aem_electrolyser.native", "identify", "validate", "--help"),
+        "identification.md",
+        "identified parameters on a held-out day",
+    ),
+    Command(
+        "aem-identify-synthesize",
+        "aem-identify synthesize",
+        _entry_point("aem-identify", "aem_electrolyser.native", "identify", "synthesize", "--help"),
+        "identification.md",
+        "a synthetic campaign with known parameters",
+    ),
+    Command(
+        "aem-run",
+        "aem-run",
+        _entry_point("aem-run", "aem_electrolyser.native", "run", "--help"),
+        "studies.md",
+        "one scenario of the hub FMU, the native master of aem-study (Rust)",
+    ),
+    *[
+        Command(
+            f"examples.{name}",
+            f"python -m aem_electrolyser.examples.{name}",
+            _module(f"aem_electrolyser.examples.{name}", "--help"),
+            guide,
+            what,
+        )
+        for name, guide, what in [
+            ("step_schedule", "getting-started.md", "the demo: one module through a setpoint step schedule"),
+            ("step_responses", "validation.md", "the paper's step responses"),
+            ("validation_day", "validation.md", "identify on ten synthetic days, validate on the eleventh"),
+            ("wind_hub", "hub.md", "25 000 modules following a 64 MW wind farm"),
+            ("grid_cosim", "cosimulation.md", "the hub and the wind farm in TOPS's two-area system"),
+            ("generator_trip", "cosimulation.md", "a generator trip with the hub offering FCR-D up"),
+        ]
+    ],
+    Command(
+        "mosaik.cigre_scenario",
+        "python -m aem_electrolyser.mosaik.cigre_scenario",
+        _module("aem_electrolyser.mosaik.cigre_scenario", "--help"),
+        "cosimulation.md",
+        "the hub on pandapower's CIGRE HV grid in mosaik",
+    ),
+    *[
+        Command(
+            f"helics.{name}",
+            f"python -m aem_electrolyser.helics.{name}",
+            _module(f"aem_electrolyser.helics.{name}", "--help"),
+            "cosimulation.md",
+            what,
+        )
+        for name, what in [
+            ("run", "the HELICS federation of wind farm, hub and grid, run together"),
+            ("broker", "the federation's broker"),
+            ("wind_federate", "the wind farm's federate"),
+            ("hub_federate", "the hub's federate"),
+            ("grid_federate", "the grid's federate"),
+        ]
+    ],
+    Command(
+        "wind.farm",
+        "python -m aem_electrolyser.wind.farm",
+        _module("aem_electrolyser.wind.farm", "--help"),
+        "hub.md",
+        "the seeded 1 s power series of a 64 MW wind farm",
+    ),
+    Command(
+        "wind.year",
+        "python -m aem_electrolyser.wind.year",
+        _module("aem_electrolyser.wind.year", "--help"),
+        "studies.md",
+        "a generated year of the wind farm",
+    ),
+    Command(
+        "plot_validation",
+        "python -m aem_electrolyser.plot_validation",
+        _module("aem_electrolyser.plot_validation", "--help"),
+        "identification.md",
+        "measured against simulated, from aem-identify validate --csv",
+    ),
 ]
 
 
@@ -413,8 +557,15 @@ def command_help(command, python=sys.executable, timeout=120):
     """(exit status, what `command --help` printed)."""
     env = {**os.environ, "COLUMNS": "100", "NO_COLOR": "1", "PYTHONIOENCODING": "utf-8"}
     try:
-        done = subprocess.run([python, *command.argv], capture_output=True, text=True, timeout=timeout, env=env,
-                              cwd=ROOT, stdin=subprocess.DEVNULL)
+        done = subprocess.run(
+            [python, *command.argv],
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            env=env,
+            cwd=ROOT,
+            stdin=subprocess.DEVNULL,
+        )
     except subprocess.TimeoutExpired:
         return None, f"--help did not finish within {timeout} s"
     text = done.stdout if done.returncode == 0 else (done.stderr.strip() or done.stdout)
@@ -423,10 +574,14 @@ def command_help(command, python=sys.executable, timeout=120):
 
 def command_markdown(command, status, text):
     """The page of one command."""
-    lines = [f"# `{command.name}`", "",
-             f"{command.what[0].upper()}{command.what[1:]}; explained in [{GUIDES[command.guide]}]"
-             f"(../../{command.guide}). Generated by `{THIS}` from the command's own `--help` when the site "
-             "was built.", ""]
+    lines = [
+        f"# `{command.name}`",
+        "",
+        f"{command.what[0].upper()}{command.what[1:]}; explained in [{GUIDES[command.guide]}]"
+        f"(../../{command.guide}). Generated by `{THIS}` from the command's own `--help` when the site "
+        "was built.",
+        "",
+    ]
     if status == 0:
         fence = "````" if "```" in text else "```"
         lines += [f"{fence}text", f"$ {command.name} --help", text, fence, ""]
@@ -451,17 +606,21 @@ def command_helps(commands=COMMANDS, python=sys.executable):
 
 
 def commands_index_markdown(helps):
-    lines = ["# Commands", "",
-             f"Every command's options, as its own `--help` prints them (generated by `{THIS}` when the site "
-             "is built). The Python commands run as `python -m ...` in any environment with the package; "
-             "`aem-study`, `aem-prequalify`, `aem-identify` and `aem-run` are installed as commands "
-             "(in a checkout `.venv/bin/...`).", "",
-             "| command | what | explained in |", "|---|---|---|"]
+    lines = [
+        "# Commands",
+        "",
+        f"Every command's options, as its own `--help` prints them (generated by `{THIS}` when the site "
+        "is built). The Python commands run as `python -m ...` in any environment with the package; "
+        "`aem-study`, `aem-prequalify`, `aem-identify` and `aem-run` are installed as commands "
+        "(in a checkout `.venv/bin/...`).",
+        "",
+        "| command | what | explained in |",
+        "|---|---|---|",
+    ]
     for c in COMMANDS:
         status = helps.get(c.slug, (0, ""))[0]
         note = "" if status == 0 else " (not available where this site was built)"
-        lines.append(f"| [`{c.name}`]({c.slug}.md) | {md_text(c.what)}{note} | "
-                     f"[{GUIDES[c.guide]}](../../{c.guide}) |")
+        lines.append(f"| [`{c.name}`]({c.slug}.md) | {md_text(c.what)}{note} | [{GUIDES[c.guide]}](../../{c.guide}) |")
     return "\n".join(lines) + "\n"
 
 
@@ -478,6 +637,7 @@ def command_page(command):
 
 def _log():
     import logging
+
     return logging.getLogger("mkdocs.hooks.docs_reference")
 
 
@@ -496,8 +656,9 @@ def _units_in_brackets():
     class UnitsInBrackets(Extension):
         def extendMarkdown(self, md):
             # after Python-Markdown's reference links (170), before mkdocs-autorefs (168)
-            md.inlinePatterns.register(Literal(r"\[[^\[\]\x02\x03]*\] \[[^\[\]\x02\x03]*\](?![\[(:])", md),
-                                       "units_in_brackets", 169)
+            md.inlinePatterns.register(
+                Literal(r"\[[^\[\]\x02\x03]*\] \[[^\[\]\x02\x03]*\](?![\[(:])", md), "units_in_brackets", 169
+            )
 
     return UnitsInBrackets()
 
@@ -506,14 +667,17 @@ def on_config(config, **kwargs):
     """Puts every command's page into the nav where mkdocs.yml names the commands' index, and
     lets brackets be brackets (`_units_in_brackets`)."""
     config.markdown_extensions.append(_units_in_brackets())
+
     def expand(entries):
         out = []
         for entry in entries:
             if isinstance(entry, dict):
-                (title, value), = entry.items()
+                ((title, value),) = entry.items()
                 if value == COMMANDS_INDEX:
-                    value = [COMMANDS_INDEX, *({c.name.removeprefix("python -m aem_electrolyser."): command_page(c)}
-                                               for c in COMMANDS)]
+                    value = [
+                        COMMANDS_INDEX,
+                        *({c.name.removeprefix("python -m aem_electrolyser."): command_page(c)} for c in COMMANDS),
+                    ]
                 elif isinstance(value, list):
                     value = expand(value)
                 out.append({title: value})
@@ -526,7 +690,7 @@ def on_config(config, **kwargs):
     return config
 
 
-_pending = {}   # src_uri of a command's page -> its Markdown, once its --help has run
+_pending = {}  # src_uri of a command's page -> its Markdown, once its --help has run
 
 
 def on_files(files, config, **kwargs):
@@ -537,8 +701,9 @@ def on_files(files, config, **kwargs):
     model = read_model(MODEL_DESCRIPTION)
     committed = INDEX_HTML.read_text(encoding="utf-8")
     if fmu_documentation(MODEL_DESCRIPTION, committed) != committed:
-        _log().warning(f"documentation/index.html is not what {THIS} makes of modelDescription.xml: "
-                       f"run .venv/bin/python {THIS}")
+        _log().warning(
+            f"documentation/index.html is not what {THIS} makes of modelDescription.xml: run .venv/bin/python {THIS}"
+        )
     files.append(File.generated(config, VARIABLES_PAGE, content=variables_markdown(model)))
     files.append(File.generated(config, FMU_DOCUMENTATION_PAGE, content=committed))
     futures = start_command_helps()
@@ -567,13 +732,18 @@ def on_page_read_source(page, config, **kwargs):
 
 # --- as a command ---------------------------------------------------------------------------------
 
+
 def main():
-    parser = argparse.ArgumentParser(description="Rewrites documentation/index.html's generated parts from "
-                                     "modelDescription.xml (or checks them).")
+    parser = argparse.ArgumentParser(
+        description="Rewrites documentation/index.html's generated parts from modelDescription.xml (or checks them)."
+    )
     parser.add_argument("--check", action="store_true", help="exit status 1 if the file is out of date, change nothing")
-    parser.add_argument("--pages", type=Path, metavar="FOLDER",
-                        help="also write the site's generated pages into FOLDER (to look at them; the site's "
-                        "build makes its own)")
+    parser.add_argument(
+        "--pages",
+        type=Path,
+        metavar="FOLDER",
+        help="also write the site's generated pages into FOLDER (to look at them; the site's build makes its own)",
+    )
     args = parser.parse_args()
     committed = INDEX_HTML.read_text(encoding="utf-8")
     wanted = fmu_documentation(MODEL_DESCRIPTION, committed)

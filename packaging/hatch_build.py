@@ -19,6 +19,7 @@ Two ways to build:
 
 An editable install (pip install -e .) takes nothing: the package then finds the build tree.
 """
+
 import os
 import shutil
 import subprocess
@@ -78,11 +79,15 @@ def _release_artefacts(target, platform):
 
 def _build_from_source(root, target):
     if sys.platform != "linux" or sysconfig.get_platform() != "linux-x86_64":
-        raise BuildError(f"aem-electrolyser builds from source on Linux x86-64 only (this is {sysconfig.get_platform()}); "
-                         "install a platform wheel instead")
+        raise BuildError(
+            f"aem-electrolyser builds from source on Linux x86-64 only (this is {sysconfig.get_platform()}); "
+            "install a platform wheel instead"
+        )
     if shutil.which("cargo") is None:
-        raise BuildError("building aem-electrolyser from source needs Rust (cargo) and libclang: install them "
-                         "(rustup; apt install libclang-dev) or a platform wheel")
+        raise BuildError(
+            "building aem-electrolyser from source needs Rust (cargo) and libclang: install them "
+            "(rustup; apt install libclang-dev) or a platform wheel"
+        )
     out = target / "wheel-artefacts"
     out.mkdir(parents=True, exist_ok=True)
     fmu = out / f"{MODEL}.fmu"
@@ -93,9 +98,30 @@ def _build_from_source(root, target):
     native = [] if portable else ["--native"]
     env = dict(os.environ, PYTHONPATH=str(root / "python"), CARGO_TARGET_DIR=str(target))
     packaging = root / "packaging"
-    subprocess.run([sys.executable, str(packaging / "platforms.py"), "all", "--platforms", "linux64", *native,
-                    "--dest", str(out)], cwd=root, env=env, check=True)
-    subprocess.run([sys.executable, str(packaging / "package.py"), "--no-build", "--platforms", "linux64", *native,
-                    "--out", str(fmu)], cwd=root, env=env, check=True)
-    tag = RELEASE_TAGS["linux64"] if portable else "py3-none-" + sysconfig.get_platform().replace("-", "_").replace(".", "_")
+    subprocess.run(
+        [sys.executable, str(packaging / "platforms.py"), "all", "--platforms", "linux64", *native, "--dest", str(out)],
+        cwd=root,
+        env=env,
+        check=True,
+    )
+    subprocess.run(
+        [
+            sys.executable,
+            str(packaging / "package.py"),
+            "--no-build",
+            "--platforms",
+            "linux64",
+            *native,
+            "--out",
+            str(fmu),
+        ],
+        cwd=root,
+        env=env,
+        check=True,
+    )
+    tag = (
+        RELEASE_TAGS["linux64"]
+        if portable
+        else "py3-none-" + sysconfig.get_platform().replace("-", "_").replace(".", "_")
+    )
     return fmu, [out / tool for tool in TOOLS], tag

@@ -31,6 +31,7 @@ The archive is deterministic: fixed timestamps and sorted entries, so the same s
 the same bytes. Standard library and aem_electrolyser.cli only (run it with .venv/bin/python, or
 with python/ on PYTHONPATH as the wheel's build hook does).
 """
+
 import argparse
 import json
 import math
@@ -83,11 +84,13 @@ def read_parameters(path: Path, module=None):
         raise ParameterFileError(f"{path}:{e.lineno}: not JSON: {e.msg}") from e
     modules = data.get("modules") if isinstance(data, dict) else None
     if not isinstance(modules, list) or not modules:
-        raise ParameterFileError(f"{path}: no \"modules\" list (write it with aem-identify fit -o)")
+        raise ParameterFileError(f'{path}: no "modules" list (write it with aem-identify fit -o)')
     ids = [m.get("module") for m in modules if isinstance(m, dict)]
     if module is None:
         if len(modules) != 1:
-            raise ParameterFileError(f"{path}: {len(modules)} modules; choose one with --module ({', '.join(map(str, ids))})")
+            raise ParameterFileError(
+                f"{path}: {len(modules)} modules; choose one with --module ({', '.join(map(str, ids))})"
+            )
         entry = modules[0]
     else:
         matches = [m for m in modules if isinstance(m, dict) and m.get("module") == module]
@@ -96,7 +99,7 @@ def read_parameters(path: Path, module=None):
         entry = matches[0]
     parameters = entry.get("parameters") if isinstance(entry, dict) else None
     if not isinstance(parameters, dict):
-        raise ParameterFileError(f"{path}: module entry without a \"parameters\" object")
+        raise ParameterFileError(f'{path}: module entry without a "parameters" object')
     return parameters
 
 
@@ -114,10 +117,12 @@ def apply_parameters(xml_text: str, parameters: dict, origin: str):
     values = {}
     for name, entry in parameters.items():
         if name not in declared:
-            raise ParameterFileError(f"{origin}: unknown parameter {name!r} (the FMU's parameters: {', '.join(declared)})")
+            raise ParameterFileError(
+                f"{origin}: unknown parameter {name!r} (the FMU's parameters: {', '.join(declared)})"
+            )
         unit, minimum = declared[name]
         if not isinstance(entry, dict) or "value" not in entry or "unit" not in entry:
-            raise ParameterFileError(f"{origin}: parameter {name!r} needs \"value\" and \"unit\"")
+            raise ParameterFileError(f'{origin}: parameter {name!r} needs "value" and "unit"')
         if entry["unit"] != unit:
             raise ParameterFileError(f"{origin}: parameter {name!r} has unit {entry['unit']!r}, the FMU's is {unit!r}")
         value = entry["value"]
@@ -129,7 +134,9 @@ def apply_parameters(xml_text: str, parameters: dict, origin: str):
     text = xml_text
     for name, value in values.items():
         # Edit the start attribute inside this variable's element only, keeping the file as written.
-        pattern = re.compile(r'(<ScalarVariable\s+name="' + re.escape(name) + r'"[^>]*>.*?<Real\b[^>]*?\bstart=")([^"]*)(")', re.S)
+        pattern = re.compile(
+            r'(<ScalarVariable\s+name="' + re.escape(name) + r'"[^>]*>.*?<Real\b[^>]*?\bstart=")([^"]*)(")', re.S
+        )
         text, count = pattern.subn(lambda m: m.group(1) + repr(value) + m.group(3), text, count=1)
         if count != 1:
             raise ParameterFileError(f"{origin}: no start attribute for {name!r} in modelDescription.xml")
@@ -159,12 +166,21 @@ def integer_enumerations(xml_text: str) -> str:
     if count != len([v for v in root.iter("ScalarVariable") if v.find("Enumeration") is not None]):
         raise ValueError("an Enumeration variable is not written as a single empty element")
     # Integer descriptions name the codes and end with their unit, as the repository's own do.
-    codes = {s.get("name"): ", ".join(f'{i.get("value")} {i.get("name")}' for i in s.iter("Item")) for s in root.iter("SimpleType")}
+    codes = {
+        s.get("name"): ", ".join(f"{i.get('value')} {i.get('name')}" for i in s.iter("Item"))
+        for s in root.iter("SimpleType")
+    }
     for sv in root.iter("ScalarVariable"):
         enumeration = sv.find("Enumeration")
         if enumeration is not None:
             pattern = r'(<ScalarVariable\s+name="' + re.escape(sv.get("name")) + r'"[^>]*?description="[^"]*)(")'
-            text = re.sub(pattern, lambda m: f"{m.group(1)} (codes: {codes[enumeration.get('declaredType')]}) [1]{m.group(2)}", text, count=1, flags=re.S)
+            text = re.sub(
+                pattern,
+                lambda m: f"{m.group(1)} (codes: {codes[enumeration.get('declaredType')]}) [1]{m.group(2)}",
+                text,
+                count=1,
+                flags=re.S,
+            )
     return re.sub(r"\s*<TypeDefinitions>.*?</TypeDefinitions>", "", text, flags=re.S)
 
 
@@ -179,8 +195,10 @@ def entries(model_description: bytes, platforms, native=False):
             sys.exit(f"package.py: {library} not found; run without --no-build")
         binary = library.read_bytes()
         if guid.encode() not in binary:
-            sys.exit(f"package.py: {library} was not built from this model description (GUID {guid} not in it); "
-                     "run without --no-build")
+            sys.exit(
+                f"package.py: {library} was not built from this model description (GUID {guid} not in it); "
+                "run without --no-build"
+            )
         yield f"binaries/{name}/{MODEL_IDENTIFIER}{built.library_suffix}", binary
     docs = ROOT / "documentation"
     for path in sorted(docs.rglob("*")):
@@ -207,16 +225,32 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, default=TARGET / "fmu" / f"{MODEL_IDENTIFIER}.fmu")
     parser.add_argument("--no-build", action="store_true", help="use the libraries already built")
-    parser.add_argument("--platforms", default=",".join(PLATFORMS),
-                        help=f"comma-separated FMI platforms to build and ship (default: {','.join(PLATFORMS)})")
-    parser.add_argument("--native", action="store_true",
-                        help="linux64 built with plain cargo against this machine's glibc (no zig; not for a release)")
-    parser.add_argument("--parameters", type=Path, help="parameter file of aem-identify: its values become the start values")
+    parser.add_argument(
+        "--platforms",
+        default=",".join(PLATFORMS),
+        help=f"comma-separated FMI platforms to build and ship (default: {','.join(PLATFORMS)})",
+    )
+    parser.add_argument(
+        "--native",
+        action="store_true",
+        help="linux64 built with plain cargo against this machine's glibc (no zig; not for a release)",
+    )
+    parser.add_argument(
+        "--parameters", type=Path, help="parameter file of aem-identify: its values become the start values"
+    )
     parser.add_argument("--module", help="module of the parameter file (when it holds several)")
-    parser.add_argument("--integer-enumerations", action="store_true",
-                        help="declare the enumerations as plain Integers (for libcosim and Ecos, which ignore enumerations)")
-    parser.add_argument("--from", dest="from_fmu", type=Path, metavar="FMU",
-                        help="with --integer-enumerations: repackage this FMU instead of building")
+    parser.add_argument(
+        "--integer-enumerations",
+        action="store_true",
+        help="declare the enumerations as plain Integers (for libcosim and Ecos, which ignore enumerations)",
+    )
+    parser.add_argument(
+        "--from",
+        dest="from_fmu",
+        type=Path,
+        metavar="FMU",
+        help="with --integer-enumerations: repackage this FMU instead of building",
+    )
     args = parser.parse_args(argv)
     platforms = [p.strip() for p in args.platforms.split(",") if p.strip()]
     unknown = [p for p in platforms if p not in PLATFORMS]
@@ -228,8 +262,13 @@ def main(argv=None):
         writable(args.out)
         with zipfile.ZipFile(args.from_fmu) as fmu:
             files = [(name, fmu.read(name)) for name in fmu.namelist() if not name.endswith("/")]
-        files = [(name, integer_enumerations(data.decode("utf-8")).encode("utf-8") if name == "modelDescription.xml" else data)
-                 for name, data in files]
+        files = [
+            (
+                name,
+                integer_enumerations(data.decode("utf-8")).encode("utf-8") if name == "modelDescription.xml" else data,
+            )
+            for name, data in files
+        ]
         write_fmu(args.out, files)
         print(f"wrote {args.out.relative_to(ROOT) if args.out.is_relative_to(ROOT) else args.out}")
         return
@@ -244,7 +283,9 @@ def main(argv=None):
     else:
         try:
             parameters = read_parameters(args.parameters, args.module)
-            text, values, guid = apply_parameters(xml_path.read_text(encoding="utf-8"), parameters, str(args.parameters))
+            text, values, guid = apply_parameters(
+                xml_path.read_text(encoding="utf-8"), parameters, str(args.parameters)
+            )
         except ParameterFileError as e:
             sys.exit(f"package.py: {e}")
         # The edited copy lives beside the output, never over the repository's file.
@@ -258,7 +299,11 @@ def main(argv=None):
         model_description = integer_enumerations(model_description.decode("utf-8")).encode("utf-8")
     write_fmu(args.out, list(entries(model_description, platforms, args.native)))
     if args.parameters is not None:
-        print(f"start values from {args.parameters}: " + ", ".join(f"{k}={v!r}" for k, v in values.items()) + f"; GUID {guid}")
+        print(
+            f"start values from {args.parameters}: "
+            + ", ".join(f"{k}={v!r}" for k, v in values.items())
+            + f"; GUID {guid}"
+        )
     print(f"wrote {args.out.relative_to(ROOT) if args.out.is_relative_to(ROOT) else args.out}")
 
 

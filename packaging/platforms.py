@@ -24,6 +24,7 @@ Build times go to stderr; the output paths are checked for writing before anythi
 Standard library and aem_electrolyser.cli only (the hook of a build from source puts python/ on
 PYTHONPATH); scripts/setup.sh installs the toolchains.
 """
+
 import argparse
 import os
 import shutil
@@ -65,6 +66,7 @@ def platform(name, native=False):
     """The Platform of FMI platform folder `name`; with native, linux64 is this machine's build."""
     return HOST if native and name == LINUX64.name else PLATFORMS[name]
 
+
 #: The oldest glibc the linux64 binary links against (manylinux2014).
 GLIBC = "2.17"
 #: Debian's rustc-web and cargo-web (a newer Rust than rustup's, with the std sources).
@@ -102,7 +104,9 @@ def command(platform, cargo_args):
         return ["cargo", "build", "--release", *cargo_args], env
     if platform is LINUX64:
         if shutil.which("cargo-zigbuild", path=env["PATH"]) is None:
-            sys.exit("platforms.py: cargo-zigbuild not found; pip install cargo-zigbuild ziglang (scripts/setup.sh does)")
+            sys.exit(
+                "platforms.py: cargo-zigbuild not found; pip install cargo-zigbuild ziglang (scripts/setup.sh does)"
+            )
         # bindgen parses the FMI headers for their types only: this machine's gcc and libc
         # headers give the same x86-64 Linux types as glibc 2.17's. (cargo-zigbuild sets the
         # dashed form of the variable, which bindgen reads first, so it is replaced here.)
@@ -115,18 +119,29 @@ def command(platform, cargo_args):
             if not Path(tool).is_file():
                 sys.exit(f"platforms.py: {tool} not found; install Debian's rustc-web, cargo-web and rust-web-src")
         mingw_gcc = _require("x86_64-w64-mingw32-gcc", "install Debian's mingw-w64")
-        env.update({
-            # -Zbuild-std is unstable: Debian's stable rustc allows it with RUSTC_BOOTSTRAP.
-            "RUSTC_BOOTSTRAP": "1",
-            "RUSTC": DEBIAN_RUSTC,
-            "CARGO_TARGET_X86_64_PC_WINDOWS_GNU_LINKER": mingw_gcc,
-            "BINDGEN_EXTRA_CLANG_ARGS_x86_64_pc_windows_gnu": f"-I{_gcc_include(mingw_gcc)}",
-            # The std built from source carries its DWARF symbols: 1.9 MB unstripped.
-            "CARGO_PROFILE_RELEASE_STRIP": "symbols",
-        })
+        env.update(
+            {
+                # -Zbuild-std is unstable: Debian's stable rustc allows it with RUSTC_BOOTSTRAP.
+                "RUSTC_BOOTSTRAP": "1",
+                "RUSTC": DEBIAN_RUSTC,
+                "CARGO_TARGET_X86_64_PC_WINDOWS_GNU_LINKER": mingw_gcc,
+                "BINDGEN_EXTRA_CLANG_ARGS_x86_64_pc_windows_gnu": f"-I{_gcc_include(mingw_gcc)}",
+                # The std built from source carries its DWARF symbols: 1.9 MB unstripped.
+                "CARGO_PROFILE_RELEASE_STRIP": "symbols",
+            }
+        )
         # Its own target directory: another compiler than rustup's, whose outputs must not mix.
-        argv = [DEBIAN_CARGO, "build", "--release", *cargo_args, "-Zbuild-std=std,panic_unwind",
-                "--target", WIN64.triple, "--target-dir", str(TARGET / WIN64.name)]
+        argv = [
+            DEBIAN_CARGO,
+            "build",
+            "--release",
+            *cargo_args,
+            "-Zbuild-std=std,panic_unwind",
+            "--target",
+            WIN64.triple,
+            "--target-dir",
+            str(TARGET / WIN64.name),
+        ]
         return argv, env
     raise ValueError(platform)
 
@@ -156,14 +171,22 @@ def test(cargo_test_args):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description="Build a command of the workspace for each platform.")
-    parser.add_argument("tool", choices=["aem-identify", "aem-run", "all", "test"],
-                        help="the command to build, all: the workspace (the FMU's library and both commands), "
-                             "or test: run the workspace's tests built for linux64")
+    parser.add_argument(
+        "tool",
+        choices=["aem-identify", "aem-run", "all", "test"],
+        help="the command to build, all: the workspace (the FMU's library and both commands), "
+        "or test: run the workspace's tests built for linux64",
+    )
     parser.add_argument("cargo_test_args", nargs="*", help="with test: after --, passed to cargo test")
     parser.add_argument("--platforms", default=",".join(PLATFORMS), help="comma-separated FMI platforms")
-    parser.add_argument("--native", action="store_true",
-                        help="linux64 built with plain cargo against this machine's glibc (no zig; not for a release)")
-    parser.add_argument("--dest", type=Path, help="copy the commands into this folder [default: target/dist/<platform>/]")
+    parser.add_argument(
+        "--native",
+        action="store_true",
+        help="linux64 built with plain cargo against this machine's glibc (no zig; not for a release)",
+    )
+    parser.add_argument(
+        "--dest", type=Path, help="copy the commands into this folder [default: target/dist/<platform>/]"
+    )
     args = parser.parse_args(argv)
     if args.tool == "test":
         sys.exit(test(args.cargo_test_args))
@@ -174,8 +197,13 @@ def main(argv=None):
     tools = ["aem-identify", "aem-run"] if args.tool == "all" else [args.tool]
     if args.dest is not None and len(names) > 1:
         parser.error("--dest takes the commands of one platform")
-    outputs = {name: [writable((args.dest or TARGET / "dist" / name) / f"{tool}{PLATFORMS[name].exe_suffix}")
-                      for tool in tools] for name in names}
+    outputs = {
+        name: [
+            writable((args.dest or TARGET / "dist" / name) / f"{tool}{PLATFORMS[name].exe_suffix}") for tool in tools
+        ]
+        for name in names
+    }
+
     def build_one(name):
         if args.tool == "all":  # the library from the repository's model description (package.py checks its GUID)
             release, _ = build(platform(name, args.native), ["--workspace", "--locked"], {"AEM_MODEL_DESCRIPTION": ""})

@@ -17,6 +17,7 @@ The version is the Cargo workspace's; the model description's and the FMU docume
 equal it (checked before anything is built). Needs the toolchains of scripts/setup.sh and runs
 in its .venv (hatchling and build, pinned in requirements.txt).
 """
+
 import argparse
 import hashlib
 import os
@@ -43,10 +44,13 @@ def versions():
     docs = re.search(r'<span id="version">([^<]+)</span>', (ROOT / "documentation" / "index.html").read_text("utf-8"))
     citation = re.search(r"(?m)^version: *\"?([^\"\s]+)", (ROOT / "CITATION.cff").read_text("utf-8"))
     changelog = re.search(r"(?m)^## \[?([0-9][^\]\s]*)", (ROOT / "CHANGELOG.md").read_text("utf-8"))
-    return {"Cargo.toml [workspace.package]": cargo, "modelDescription.xml": model,
-            "documentation/index.html": docs.group(1) if docs else None,
-            "CITATION.cff": citation.group(1) if citation else None,
-            "CHANGELOG.md (latest release)": changelog.group(1) if changelog else None}
+    return {
+        "Cargo.toml [workspace.package]": cargo,
+        "modelDescription.xml": model,
+        "documentation/index.html": docs.group(1) if docs else None,
+        "CITATION.cff": citation.group(1) if citation else None,
+        "CHANGELOG.md (latest release)": changelog.group(1) if changelog else None,
+    }
 
 
 def step(what, argv, **env):
@@ -81,8 +85,11 @@ def main(argv=None):
     step("the workspace for linux64 and win64", [python, "packaging/platforms.py", "all"])
     step("the FMU (linux64 and win64)", [python, "packaging/package.py", "--no-build"])
     for platform in PLATFORMS:
-        step(f"the {platform} wheel", [python, "-m", "build", "--wheel", "--no-isolation", "--outdir", out],
-             AEM_WHEEL_PLATFORM=platform)
+        step(
+            f"the {platform} wheel",
+            [python, "-m", "build", "--wheel", "--no-isolation", "--outdir", out],
+            AEM_WHEEL_PLATFORM=platform,
+        )
     step("the sdist", [python, "-m", "build", "--sdist", "--no-isolation", "--outdir", out])
     shutil.copyfile(TARGET / "fmu" / "AemElectrolyser.fmu", out / f"AemElectrolyser-{version}.fmu")
     for platform, (name, suffix) in PLATFORMS.items():

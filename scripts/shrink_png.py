@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Shrink a matplotlib PNG for docs/ by quantising it to a small palette (no dithering).
 
-    python scripts/shrink_png.py out/step_responses.png docs/images/step_responses.png [--colors 64]
+python scripts/shrink_png.py out/step_responses.png docs/images/step_responses.png [--colors 64]
 """
+
 import argparse
 from pathlib import Path
 
@@ -18,7 +19,9 @@ def main(argv=None):
     args = parser.parse_args(argv)
     writable(args.dst)
     image = Image.open(args.src).convert("RGB")
-    image.quantize(colors=args.colors, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(args.dst, optimize=True)
+    image.quantize(colors=args.colors, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(
+        args.dst, optimize=True
+    )
     print(f"wrote {args.dst} ({args.dst.stat().st_size // 1024} kB)")
 
 

@@ -11,6 +11,7 @@ co-simulation frameworks), `examples` (the paper's examples, `python -m
 aem_electrolyser.examples.NAME`). The native commands `aem-identify` and `aem-run` come with
 the platform wheels.
 """
+
 from importlib.metadata import PackageNotFoundError, version as _version
 
 from .locate import NotBuilt, fmu_path

@@ -15,6 +15,7 @@
 - `progress(...)` is a tqdm bar on stderr, off with `--quiet` or when stdout is not a terminal.
 - A reader that goes away (`... | head`) ends the command quietly with status 0.
 """
+
 import argparse
 import difflib
 import os
@@ -77,8 +78,10 @@ class CommandLine(argparse.ArgumentParser):
 
 # --- argument types: each refuses a bad value with a message that names what is allowed ---------
 
+
 def positive(kind=float):
     """A type for numbers > 0 (int or float)."""
+
     def parse(text):
         try:
             value = kind(text)
@@ -87,12 +90,14 @@ def positive(kind=float):
         if not value > 0 or value != value or value in (float("inf"),):
             raise argparse.ArgumentTypeError(f"must be a positive {'integer' if kind is int else 'number'}, not {text}")
         return value
+
     parse.__name__ = f"positive {kind.__name__}"
     return parse
 
 
 def non_negative(kind=float):
     """A type for finite numbers ≥ 0."""
+
     def parse(text):
         try:
             value = kind(text)
@@ -101,22 +106,27 @@ def non_negative(kind=float):
         if not 0 <= value < float("inf"):
             raise argparse.ArgumentTypeError(f"must be zero or more, not {text}")
         return value
+
     return parse
 
 
 def one_of(allowed):
     """A type for one name of `allowed` (a suggestion for a near miss)."""
+
     def parse(text):
         if text not in allowed:
             raise argparse.ArgumentTypeError(
-                f"{text!r} is not one of {', '.join(allowed)}{did_you_mean(text, allowed)}")
+                f"{text!r} is not one of {', '.join(allowed)}{did_you_mean(text, allowed)}"
+            )
         return text
+
     return parse
 
 
 def list_of(allowed):
     """A type for comma-separated names of `allowed` (a list, order kept, no repeats); 'all'
     stands for every one."""
+
     def parse(text):
         if text.strip() == "all":
             return list(allowed)
@@ -125,18 +135,23 @@ def list_of(allowed):
             raise argparse.ArgumentTypeError(f"name at least one of {', '.join(allowed)}")
         for n in names:
             if n not in allowed:
-                raise argparse.ArgumentTypeError(
-                    f"{n!r} is not one of {', '.join(allowed)}{did_you_mean(n, allowed)}")
+                raise argparse.ArgumentTypeError(f"{n!r} is not one of {', '.join(allowed)}{did_you_mean(n, allowed)}")
         return list(dict.fromkeys(names))
+
     return parse
 
 
 # --- the FMU and the output folder -----------------------------------------------------------
 
+
 def add_fmu_option(parser):
     """Adds --fmu (default: the FMU of this installation, or the environment variable AEM_FMU)."""
-    parser.add_argument("--fmu", type=Path, default=None,
-                        help="the FMU [default: the one installed with this package; AEM_FMU overrides]")
+    parser.add_argument(
+        "--fmu",
+        type=Path,
+        default=None,
+        help="the FMU [default: the one installed with this package; AEM_FMU overrides]",
+    )
 
 
 def resolve_fmu(parser, args):
@@ -159,8 +174,9 @@ def resolve_fmu(parser, args):
 
 def add_out_option(parser, default, what="the result files"):
     """Adds --out, a folder (made if missing)."""
-    parser.add_argument("--out", type=Path, default=Path(default), metavar="FOLDER",
-                        help=f"folder for {what} [default: {default}]")
+    parser.add_argument(
+        "--out", type=Path, default=Path(default), metavar="FOLDER", help=f"folder for {what} [default: {default}]"
+    )
 
 
 def _refuse(path, error):
@@ -198,6 +214,7 @@ def writable_folder(folder):
 
 
 # --- running and reporting -------------------------------------------------------------------
+
 
 def one_line(error):
     """An exception as one line in its own words (its type where the words are not enough)."""
@@ -249,8 +266,18 @@ def shows_progress(quiet=False):
 def progress(iterable=None, total=None, desc=None, unit="it", quiet=False, **kwargs):
     """A tqdm bar on stderr (see shows_progress); usable as an iterable wrapper or with update()."""
     from tqdm import tqdm
-    return tqdm(iterable, total=total, desc=desc, unit=unit, file=sys.stderr, dynamic_ncols=True,
-                disable=not shows_progress(quiet), leave=False, **kwargs)
+
+    return tqdm(
+        iterable,
+        total=total,
+        desc=desc,
+        unit=unit,
+        file=sys.stderr,
+        dynamic_ncols=True,
+        disable=not shows_progress(quiet),
+        leave=False,
+        **kwargs,
+    )
 
 
 def say(args, *text):

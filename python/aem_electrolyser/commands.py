@@ -1,5 +1,6 @@
 """The Python commands of the package (console entry points): each checks its extra first, so a
 missing one gives its `pip install` line, not a traceback."""
+
 import sys
 
 from .extras import require
@@ -9,6 +10,7 @@ def study():
     """aem-study: year-long studies of hubs on Dask."""
     require("study", "aem-study")
     from .study.cli import main
+
     sys.exit(main())
 
 
@@ -17,4 +19,5 @@ def prequalify():
     require("reserves", "aem-prequalify")
     from .reserves.prequalify import main
     from .cli import quiet_on_closed_stdout
+
     quiet_on_closed_stdout(main)

@@ -6,6 +6,7 @@ traceback.
     with needs("mosaik", __name__):          # a module's imports: MissingExtra (an ImportError),
         import mosaik                        # or that line and exit when run as the program
 """
+
 import contextlib
 import importlib
 import sys
@@ -15,8 +16,15 @@ EXTRAS = {
     "plots": ("matplotlib",),
     "study": ("distributed", "pyarrow", "pandas", "tqdm", "matplotlib"),
     "reserves": ("matplotlib",),
-    "mosaik": ("mosaik", "mosaik_api_v3", "mosaik_components.pandapower", "mosaik_csv", "pandapower", "loguru",
-               "matplotlib"),
+    "mosaik": (
+        "mosaik",
+        "mosaik_api_v3",
+        "mosaik_components.pandapower",
+        "mosaik_csv",
+        "pandapower",
+        "loguru",
+        "matplotlib",
+    ),
     "helics": ("helics", "pandapower", "matplotlib"),
     "grid": ("tops", "matplotlib"),
 }

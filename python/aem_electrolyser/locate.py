@@ -5,6 +5,7 @@ An installed wheel carries them inside the package (`data/AemElectrolyser.fmu`,
 tree (`target/fmu/`, `target/release/`, `target/dist/<platform>/`), which `bash scripts/demo.sh`
 or `bash scripts/test.sh` fill.
 """
+
 import os
 from pathlib import Path
 
@@ -51,10 +52,12 @@ def fmu_path(path=None):
     if target is not None and (target / "fmu" / FMU_NAME).is_file():
         return target / "fmu" / FMU_NAME
     if target is not None:
-        raise NotBuilt(f"{target / 'fmu' / FMU_NAME} not found: build it with bash scripts/demo.sh "
-                       f"(or set {FMU_VARIABLE})")
-    raise NotBuilt(f"this installation of aem-electrolyser has no FMU ({bundled}); "
-                   f"install a platform wheel or set {FMU_VARIABLE}")
+        raise NotBuilt(
+            f"{target / 'fmu' / FMU_NAME} not found: build it with bash scripts/demo.sh (or set {FMU_VARIABLE})"
+        )
+    raise NotBuilt(
+        f"this installation of aem-electrolyser has no FMU ({bundled}); install a platform wheel or set {FMU_VARIABLE}"
+    )
 
 
 def exe(name):
@@ -76,8 +79,10 @@ def binary(name):
         if built:
             return max(built, key=lambda p: p.stat().st_mtime)
         raise NotBuilt(f"{target / 'release' / exe(name)} not found: build it with cargo build --release --bins")
-    raise NotBuilt(f"this installation of aem-electrolyser has no {exe(name)} ({bundled}): "
-                   "install a platform wheel (pip install aem-electrolyser on Linux x86-64 or Windows x64)")
+    raise NotBuilt(
+        f"this installation of aem-electrolyser has no {exe(name)} ({bundled}): "
+        "install a platform wheel (pip install aem-electrolyser on Linux x86-64 or Windows x64)"
+    )
 
 
 #: aem-study's worker platforms (study.worker.this_platform) -> (FMI platform folder, aem-run's file).

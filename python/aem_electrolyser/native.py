@@ -1,5 +1,6 @@
 """The entry points `aem-identify` and `aem-run`: they run the native command of this
 installation (aem_electrolyser.locate.binary) with the same arguments and exit status."""
+
 import os
 import subprocess
 import sys

@@ -8,6 +8,7 @@ DC power and hydrogen flow, measured (grey) and the identified model (colour). R
 settle time after a start-up, which the RMSE leaves out, are shaded. The PNG's path is checked
 for writing before the CSV is read.
 """
+
 import csv
 from pathlib import Path
 
@@ -51,12 +52,22 @@ def main(argv=None):
         measured, model = d[f"{key}_measured"], d[f"{key}_model"]
         ax.plot(hours, measured, color="0.6", lw=0.6, label="measured")
         ax.plot(hours, model, color="tab:blue", lw=0.9, label="identified model")
-        ax.fill_between(hours, 0, 1, where=d["compared"] == 0, transform=ax.get_xaxis_transform(),
-                        color="tab:orange", alpha=0.12, lw=0)
+        ax.fill_between(
+            hours,
+            0,
+            1,
+            where=d["compared"] == 0,
+            transform=ax.get_xaxis_transform(),
+            color="tab:orange",
+            alpha=0.12,
+            lw=0,
+        )
         compared = d["compared"] == 1
         if np.any(np.isfinite(measured[compared])):
             rmse = np.sqrt(np.nanmean((measured[compared] - model[compared]) ** 2))
-            ax.set_title(f"{label.split(' [')[0]}: RMSE {rmse:.4g} {label.split('[')[1].rstrip(']')}", fontsize=9, loc="left")
+            ax.set_title(
+                f"{label.split(' [')[0]}: RMSE {rmse:.4g} {label.split('[')[1].rstrip(']')}", fontsize=9, loc="left"
+            )
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     axes[0].legend(loc="lower right", fontsize=8)

@@ -1,5 +1,6 @@
 """Shared fixtures: the packaged FMU, its model description, a driver with a captured logger,
 and the paper's parameters with the closed-form responses the tests compare against."""
+
 import itertools
 import math
 import os
@@ -193,15 +194,29 @@ def wine(tmp_path_factory):
     base = tmp_path_factory.mktemp("wine")
     shim = base / "shim"
     shim.mkdir()
-    subprocess.run([gcc, "-O2", "-shared", "-o", str(shim / "bcryptprimitives.dll"),
-                    str(ROOT / "tests" / "windows" / "bcryptprimitives.c"), "-ladvapi32"], check=True)
+    subprocess.run(
+        [
+            gcc,
+            "-O2",
+            "-shared",
+            "-o",
+            str(shim / "bcryptprimitives.dll"),
+            str(ROOT / "tests" / "windows" / "bcryptprimitives.c"),
+            "-ladvapi32",
+        ],
+        check=True,
+    )
     env = dict(os.environ, WINEPREFIX=str(base / "prefix"), WINEDEBUG="-all", WINEPATH=windows_path(shim))
     env.pop("DISPLAY", None)
 
     def run_windows(exe, *args, shim_on_path=True, check=True):
         cmd = [WINE, exe, *args]
-        done = subprocess.run([str(c) for c in cmd], capture_output=True, timeout=600,
-                              env=env if shim_on_path else {**env, "WINEPATH": ""})
+        done = subprocess.run(
+            [str(c) for c in cmd],
+            capture_output=True,
+            timeout=600,
+            env=env if shim_on_path else {**env, "WINEPATH": ""},
+        )
         out = done.stdout.decode(errors="replace").replace("\r\n", "\n")
         if check:
             assert done.returncode == 0, f"{cmd}\nexit {done.returncode}\n{out}\n{done.stderr.decode(errors='replace')}"

@@ -7,6 +7,7 @@ naming the path, before any long computation. packaging/platforms.py compiles fo
 aem_electrolyser.examples.validation_day rebuilds the FMU's library, so of these two only the help and the
 argument and output-path errors are run here.
 """
+
 import importlib.util
 import os
 import subprocess
@@ -19,13 +20,32 @@ import pytest
 
 from conftest import ROOT
 
-VALIDATION_HEADER = ("time,setpoint,current_measured,current_model,voltage_measured,voltage_model,"
-                     "power_measured,power_model,h2_flow_measured,h2_flow_model,compared")
-COMMANDS = [["-m", f"aem_electrolyser.{m}"] for m in (
-    "examples.step_schedule", "examples.step_responses", "examples.validation_day", "wind.farm", "examples.wind_hub",
-    "examples.grid_cosim", "plot_validation", "reserves.prequalify", "study")] + [
-    [script] for script in ("packaging/package.py", "packaging/cross_check.py", "packaging/platforms.py",
-                            "scripts/shrink_png.py")]
+VALIDATION_HEADER = (
+    "time,setpoint,current_measured,current_model,voltage_measured,voltage_model,"
+    "power_measured,power_model,h2_flow_measured,h2_flow_model,compared"
+)
+COMMANDS = [
+    ["-m", f"aem_electrolyser.{m}"]
+    for m in (
+        "examples.step_schedule",
+        "examples.step_responses",
+        "examples.validation_day",
+        "wind.farm",
+        "examples.wind_hub",
+        "examples.grid_cosim",
+        "plot_validation",
+        "reserves.prequalify",
+        "study",
+    )
+] + [
+    [script]
+    for script in (
+        "packaging/package.py",
+        "packaging/cross_check.py",
+        "packaging/platforms.py",
+        "scripts/shrink_png.py",
+    )
+]
 
 
 def run(args, stdout_closed=True, timeout=120, env=None, buffered=False):
@@ -38,8 +58,15 @@ def run(args, stdout_closed=True, timeout=120, env=None, buffered=False):
     read, write = os.pipe()
     os.close(read)
     try:
-        return subprocess.run([sys.executable, *map(str, args)], cwd=ROOT, stdout=write if stdout_closed else subprocess.DEVNULL,
-                              stderr=subprocess.PIPE, text=True, timeout=timeout, env=env)
+        return subprocess.run(
+            [sys.executable, *map(str, args)],
+            cwd=ROOT,
+            stdout=write if stdout_closed else subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=timeout,
+            env=env,
+        )
     finally:
         os.close(write)
 
@@ -81,47 +108,111 @@ def packable_platforms():
 def closed_stdout_case(name, tmp, fmu):
     """(arguments with short horizons, result files) of command `name`."""
     if name == "step_schedule":
-        return (["-m", "aem_electrolyser.examples.step_schedule", "--fmu", fmu, "--out", tmp / "ss"],
-                [tmp / "ss/step_schedule.csv", tmp / "ss/step_schedule.png"])
+        return (
+            ["-m", "aem_electrolyser.examples.step_schedule", "--fmu", fmu, "--out", tmp / "ss"],
+            [tmp / "ss/step_schedule.csv", tmp / "ss/step_schedule.png"],
+        )
     if name == "step_responses":
-        return (["-m", "aem_electrolyser.examples.step_responses", "--fmu", fmu, "--out", tmp, "--duration", 60, "--dt", 1, "--dpi", 40],
-                [tmp / "step_responses.csv", tmp / "step_responses_table.csv", tmp / "step_responses.png"])
+        return (
+            [
+                "-m",
+                "aem_electrolyser.examples.step_responses",
+                "--fmu",
+                fmu,
+                "--out",
+                tmp,
+                "--duration",
+                60,
+                "--dt",
+                1,
+                "--dpi",
+                40,
+            ],
+            [tmp / "step_responses.csv", tmp / "step_responses_table.csv", tmp / "step_responses.png"],
+        )
     if name == "wind_farm":
         return ["-m", "aem_electrolyser.wind.farm", "--hours", 0.1, "--out", tmp / "wf"], [tmp / "wf/wind_farm.csv"]
     if name == "wind_hub":
-        return (["-m", "aem_electrolyser.examples.wind_hub", "--fmu", fmu, "--duration", 60, "--out", tmp / "wh"],
-                [tmp / "wh/wind_hub.csv", tmp / "wh/wind_hub.png"])
+        return (
+            ["-m", "aem_electrolyser.examples.wind_hub", "--fmu", fmu, "--duration", 60, "--out", tmp / "wh"],
+            [tmp / "wh/wind_hub.csv", tmp / "wh/wind_hub.png"],
+        )
     if name == "grid_cosim":
-        return (["-m", "aem_electrolyser.examples.grid_cosim", "--fmu", fmu, "--duration", 1, "--gust-start", 0.2, "--out", tmp / "gc"],
-                [tmp / "gc/grid_cosim.csv", tmp / "gc/grid_cosim.png"])
+        return (
+            [
+                "-m",
+                "aem_electrolyser.examples.grid_cosim",
+                "--fmu",
+                fmu,
+                "--duration",
+                1,
+                "--gust-start",
+                0.2,
+                "--out",
+                tmp / "gc",
+            ],
+            [tmp / "gc/grid_cosim.csv", tmp / "gc/grid_cosim.png"],
+        )
     if name == "package":
         platforms = packable_platforms()
         if not platforms:
             pytest.skip("no built library comes from modelDescription.xml (python packaging/package.py builds one)")
-        return (["packaging/package.py", "--no-build", "--platforms", ",".join(platforms), "--out", tmp / "x.fmu"],
-                [tmp / "x.fmu"])
+        return (
+            ["packaging/package.py", "--no-build", "--platforms", ",".join(platforms), "--out", tmp / "x.fmu"],
+            [tmp / "x.fmu"],
+        )
     if name == "cross_check":
         with zipfile.ZipFile(fmu) as z:
-            platforms = sorted({n.split("/")[1] for n in z.namelist() if n.startswith("binaries/") and n.count("/") == 2})
+            platforms = sorted(
+                {n.split("/")[1] for n in z.namelist() if n.startswith("binaries/") and n.count("/") == 2}
+            )
         version = tomllib.loads((ROOT / "Cargo.toml").read_text())["workspace"]["package"]["version"]
-        return (["packaging/cross_check.py", "--fmu", fmu, "--out", tmp / "cc"],
-                [tmp / "cc/fmus/2.0/cs" / p / "aem-electrolyser-fmu" / version / "AemElectrolyser/AemElectrolyser_ref.csv"
-                 for p in platforms])
+        return (
+            ["packaging/cross_check.py", "--fmu", fmu, "--out", tmp / "cc"],
+            [
+                tmp
+                / "cc/fmus/2.0/cs"
+                / p
+                / "aem-electrolyser-fmu"
+                / version
+                / "AemElectrolyser/AemElectrolyser_ref.csv"
+                for p in platforms
+            ],
+        )
     if name == "plot_validation":
-        return ["-m", "aem_electrolyser.plot_validation", validation_trace(tmp / "trace.csv"), tmp / "v.png"], [tmp / "v.png"]
+        return ["-m", "aem_electrolyser.plot_validation", validation_trace(tmp / "trace.csv"), tmp / "v.png"], [
+            tmp / "v.png"
+        ]
     if name == "aem-study":
         (tmp / "flat.csv").write_text("time [s],power [MW]\n0,1\n600,1\n")
-        (tmp / "s.toml").write_text(f'[study]\nfmu = "{fmu}"\n[axes]\nnModules = [500, 600]\n'
-                                    '[series.flat]\nfile = "flat.csv"\ncolumn = "power [MW]"\n')
-        return (["-m", "aem_electrolyser.study", tmp / "s.toml", "--serial", "--out", tmp / "st"],
-                [tmp / "st" / name for name in ("kpis.csv", "kpis.parquet", "summary.txt", "plots/hydrogen_kg.png")])
+        (tmp / "s.toml").write_text(
+            f'[study]\nfmu = "{fmu}"\n[axes]\nnModules = [500, 600]\n'
+            '[series.flat]\nfile = "flat.csv"\ncolumn = "power [MW]"\n'
+        )
+        return (
+            ["-m", "aem_electrolyser.study", tmp / "s.toml", "--serial", "--out", tmp / "st"],
+            [tmp / "st" / name for name in ("kpis.csv", "kpis.parquet", "summary.txt", "plots/hydrogen_kg.png")],
+        )
     if name == "shrink_png":
         return ["scripts/shrink_png.py", small_png(tmp / "big.png"), tmp / "small.png"], [tmp / "small.png"]
     raise ValueError(name)
 
 
-@pytest.mark.parametrize("name", ["step_schedule", "step_responses", "wind_farm", "wind_hub", "grid_cosim", "package",
-                                  "cross_check", "plot_validation", "shrink_png", "aem-study"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "step_schedule",
+        "step_responses",
+        "wind_farm",
+        "wind_hub",
+        "grid_cosim",
+        "package",
+        "cross_check",
+        "plot_validation",
+        "shrink_png",
+        "aem-study",
+    ],
+)
 def test_a_closed_stdout_ends_the_command_quietly_after_its_files_are_written(name, tmp_path, fmu_path):
     args, outputs = closed_stdout_case(name, tmp_path, fmu_path)
     assert_quiet(run(args))
@@ -160,13 +251,32 @@ def unwritable_case(name, blocked, tmp, fmu):
         "grid_cosim": ["-m", "aem_electrolyser.examples.grid_cosim", "--fmu", fmu, "--out", blocked / "gc"],
         "package": ["packaging/package.py", "--no-build", "--out", blocked / "x.fmu"],
         "cross_check": ["packaging/cross_check.py", "--fmu", fmu, "--out", blocked],
-        "plot_validation": ["-m", "aem_electrolyser.plot_validation", validation_trace(tmp / "trace.csv"), blocked / "v.png"],
+        "plot_validation": [
+            "-m",
+            "aem_electrolyser.plot_validation",
+            validation_trace(tmp / "trace.csv"),
+            blocked / "v.png",
+        ],
         "shrink_png": ["scripts/shrink_png.py", small_png(tmp / "big.png"), blocked / "small.png"],
     }[name], None
 
 
-@pytest.mark.parametrize("name", ["step_schedule", "step_responses", "validation_day", "wind_farm", "wind_hub",
-                                  "grid_cosim", "package", "cross_check", "plot_validation", "shrink_png", "platforms"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "step_schedule",
+        "step_responses",
+        "validation_day",
+        "wind_farm",
+        "wind_hub",
+        "grid_cosim",
+        "package",
+        "cross_check",
+        "plot_validation",
+        "shrink_png",
+        "platforms",
+    ],
+)
 def test_an_unwritable_output_path_fails_fast_with_one_line(name, tmp_path, fmu_path):
     regular_file = tmp_path / "a-file"
     regular_file.write_text("not a folder\n")

@@ -10,6 +10,7 @@ during the work is status 1 and one line, "(--debug shows the traceback)"; `--de
 Every case is a refusal before any work (or a failure at the FMU's instantiation), so each runs in
 about a second, the commands that import pandapower or Dask before parsing in about three.
 """
+
 import re
 import subprocess
 import sys
@@ -65,17 +66,21 @@ def fmu_cases(command, *extra):
     """--fmu missing, --fmu a text file, --fmu a zip archive without modelDescription.xml."""
     return [
         case(command, "fmu-missing", ["--fmu", "/no/such.fmu", *extra, *OUT], ["--fmu", "/no/such.fmu", "no such FMU"]),
-        case(command, "fmu-text-file", ["--fmu", "{text_fmu}", *extra, *OUT],
-             ["--fmu", "{text_fmu}", "is not an FMU"]),
-        case(command, "fmu-zip-without-model-description", ["--fmu", "{zip_fmu}", *extra, *OUT],
-             ["--fmu", "{zip_fmu}", "is not an FMU", "modelDescription.xml"]),
+        case(command, "fmu-text-file", ["--fmu", "{text_fmu}", *extra, *OUT], ["--fmu", "{text_fmu}", "is not an FMU"]),
+        case(
+            command,
+            "fmu-zip-without-model-description",
+            ["--fmu", "{zip_fmu}", *extra, *OUT],
+            ["--fmu", "{zip_fmu}", "is not an FMU", "modelDescription.xml"],
+        ),
     ]
 
 
 def out_file_case(command, status=2, *extra):
     """--out an existing regular file (the file is left as it was)."""
-    return case(command, "out-is-a-file", [*extra, "--out", "{file}"], ["--out", "{file}", "names a folder"],
-                status=status)
+    return case(
+        command, "out-is-a-file", [*extra, "--out", "{file}"], ["--out", "{file}", "names a folder"], status=status
+    )
 
 
 TABLE = [
@@ -88,12 +93,14 @@ TABLE = [
     case("step_responses", "duration-0", ["--duration", "0", *OUT], ["--duration", "positive"]),
     case("step_responses", "duration-negative", ["--duration", "-5", *OUT], ["--duration", "positive"]),
     case("step_responses", "dt-0", ["--dt", "0", *OUT], ["--dt", "positive"]),
-    case("step_responses", "misspelled-option", ["--duraton", "5", *OUT], ["unknown option --duraton"],
-         near="--duration"),
+    case(
+        "step_responses", "misspelled-option", ["--duraton", "5", *OUT], ["unknown option --duraton"], near="--duration"
+    ),
     out_file_case("step_responses"),
     # --- examples.validation_day (no --fmu: it builds its own; --tool is its input)
-    case("validation_day", "tool-missing", ["--tool", "/no/such/aem-identify", *OUT],
-         ["--tool", "/no/such/aem-identify"]),
+    case(
+        "validation_day", "tool-missing", ["--tool", "/no/such/aem-identify", *OUT], ["--tool", "/no/such/aem-identify"]
+    ),
     case("validation_day", "days-0", ["--days", "0", *OUT], ["--days", "positive"]),
     case("validation_day", "hours-0", ["--hours", "0", *OUT], ["--hours", "positive"]),
     case("validation_day", "misspelled-option", ["--dais", "3", *OUT], ["unknown option --dais"], near="--days"),
@@ -117,17 +124,18 @@ TABLE = [
     case("generator_trip", "duration-0", ["--duration", "0", *OUT], ["--duration", "positive"]),
     case("generator_trip", "modules-0", ["--modules", "0", *OUT], ["--modules", "positive"]),
     case("generator_trip", "modules-negative", ["--modules", "-1000", *OUT], ["--modules", "positive"]),
-    case("generator_trip", "misspelled-option", ["--duraton", "5", *OUT], ["unknown option --duraton"],
-         near="--duration"),
+    case(
+        "generator_trip", "misspelled-option", ["--duraton", "5", *OUT], ["unknown option --duraton"], near="--duration"
+    ),
     out_file_case("generator_trip"),
     # --- mosaik.cigre_scenario
     *fmu_cases("cigre_scenario"),
     case("cigre_scenario", "duration-0", ["--duration", "0", *OUT], ["--duration", "positive"]),
     case("cigre_scenario", "duration-negative", ["--duration", "-5", *OUT], ["--duration", "positive"]),
-    case("cigre_scenario", "dispatch-unknown", ["--dispatch", "eqaul", *OUT], ["--dispatch", "'eqaul'"],
-         near="equal"),
-    case("cigre_scenario", "misspelled-option", ["--duraton", "5", *OUT], ["unknown option --duraton"],
-         near="--duration"),
+    case("cigre_scenario", "dispatch-unknown", ["--dispatch", "eqaul", *OUT], ["--dispatch", "'eqaul'"], near="equal"),
+    case(
+        "cigre_scenario", "misspelled-option", ["--duraton", "5", *OUT], ["unknown option --duraton"], near="--duration"
+    ),
     out_file_case("cigre_scenario"),
     # --- helics.run
     *fmu_cases("helics.run"),
@@ -148,59 +156,124 @@ TABLE = [
     out_file_case("wind.year"),
     # --- plot_validation CSV PNG (the PNG in {out}: its folder must not be made)
     case("plot_validation", "csv-missing", ["/no/such.csv", "{out}/validation.png"], ["csv", "/no/such.csv"]),
-    case("plot_validation", "misspelled-option", ["--dbug", "{file}", "{out}/validation.png"],
-         ["unknown option --dbug"], near="--debug"),
+    case(
+        "plot_validation",
+        "misspelled-option",
+        ["--dbug", "{file}", "{out}/validation.png"],
+        ["unknown option --dbug"],
+        near="--debug",
+    ),
     # --- aem-prequalify
     *fmu_cases("aem-prequalify"),
     case("aem-prequalify", "modules-0", ["--modules", "0", *OUT], ["--modules", "positive"]),
     case("aem-prequalify", "modules-negative", ["--modules", "-1000", *OUT], ["--modules", "positive"]),
-    case("aem-prequalify", "dispatch-unknown", ["--dispatch", "eqaul", *OUT], ["--dispatch", "'eqaul'"],
-         near="equal"),
-    case("aem-prequalify", "products-unknown", ["--products", "FCR-D upp", *OUT], ["--products", "'FCR-D upp'"],
-         near="FCR-D up"),
-    case("aem-prequalify", "compensation-unknown", ["--compensation", "maybe", *OUT],
-         ["--compensation", "'maybe'", "off, on, both"]),
-    case("aem-prequalify", "compensation-near-miss", ["--compensation", "bot", *OUT], ["--compensation", "'bot'"],
-         near="both"),
+    case("aem-prequalify", "dispatch-unknown", ["--dispatch", "eqaul", *OUT], ["--dispatch", "'eqaul'"], near="equal"),
+    case(
+        "aem-prequalify",
+        "products-unknown",
+        ["--products", "FCR-D upp", *OUT],
+        ["--products", "'FCR-D upp'"],
+        near="FCR-D up",
+    ),
+    case(
+        "aem-prequalify",
+        "compensation-unknown",
+        ["--compensation", "maybe", *OUT],
+        ["--compensation", "'maybe'", "off, on, both"],
+    ),
+    case(
+        "aem-prequalify",
+        "compensation-near-miss",
+        ["--compensation", "bot", *OUT],
+        ["--compensation", "'bot'"],
+        near="both",
+    ),
     case("aem-prequalify", "dt-0", ["--dt", "0", *OUT], ["--dt", "positive"]),
     case("aem-prequalify", "jobs-0", ["--jobs", "0", *OUT], ["--jobs", "positive"]),
-    case("aem-prequalify", "misspelled-option", ["--modulse", "10", *OUT], ["unknown option --modulse"],
-         near="--modules"),
+    case(
+        "aem-prequalify", "misspelled-option", ["--modulse", "10", *OUT], ["unknown option --modulse"], near="--modules"
+    ),
     out_file_case("aem-prequalify"),
     # --- aem-study STUDY.toml
-    case("aem-study", "study-file-missing", ["{tmp}/no_such_study.toml", "--serial", *OUT],
-         ["{tmp}/no_such_study.toml", "no such study file"]),
-    case("aem-study", "misspelled-axis", ["{hub_sise}", "--serial", *OUT],
-         ["{hub_sise}", "[axes]", "'hub_sise'", "valid axes: series, seed, hub_size, step, horizon", "nModules"],
-         near="hub_size"),
-    case("aem-study", "misspelled-key", ["{horizn}", "--serial", *OUT], ["{horizn}", "[study]", "'horizn'"],
-         near="horizon"),
-    case("aem-study", "misspelled-table", ["{axis_table}", "--serial", *OUT], ["{axis_table}", "[axis]"],
-         near="axes"),
+    case(
+        "aem-study",
+        "study-file-missing",
+        ["{tmp}/no_such_study.toml", "--serial", *OUT],
+        ["{tmp}/no_such_study.toml", "no such study file"],
+    ),
+    case(
+        "aem-study",
+        "misspelled-axis",
+        ["{hub_sise}", "--serial", *OUT],
+        ["{hub_sise}", "[axes]", "'hub_sise'", "valid axes: series, seed, hub_size, step, horizon", "nModules"],
+        near="hub_size",
+    ),
+    case(
+        "aem-study",
+        "misspelled-key",
+        ["{horizn}", "--serial", *OUT],
+        ["{horizn}", "[study]", "'horizn'"],
+        near="horizon",
+    ),
+    case("aem-study", "misspelled-table", ["{axis_table}", "--serial", *OUT], ["{axis_table}", "[axis]"], near="axes"),
     case("aem-study", "hub-size-0", ["{hub_size_0}", "--serial", *OUT], ["{hub_size_0}", "[axes] hub_size", "0"]),
-    case("aem-study", "study-fmu-missing", ["{fmu_missing_study}", "--serial", *OUT],
-         ["{fmu_missing_study}", "[study] fmu", "/no/such.fmu"]),
-    case("aem-study", "study-fmu-text-file", ["{fmu_text_study}", "--serial", *OUT],
-         ["{fmu_text_study}", "[study] fmu", "{text_fmu}", "is not an FMU"]),
-    case("aem-study", "study-fmu-zip-without-model-description", ["{fmu_zip_study}", "--serial", *OUT],
-         ["{fmu_zip_study}", "[study] fmu", "{zip_fmu}", "is not an FMU"]),
+    case(
+        "aem-study",
+        "study-fmu-missing",
+        ["{fmu_missing_study}", "--serial", *OUT],
+        ["{fmu_missing_study}", "[study] fmu", "/no/such.fmu"],
+    ),
+    case(
+        "aem-study",
+        "study-fmu-text-file",
+        ["{fmu_text_study}", "--serial", *OUT],
+        ["{fmu_text_study}", "[study] fmu", "{text_fmu}", "is not an FMU"],
+    ),
+    case(
+        "aem-study",
+        "study-fmu-zip-without-model-description",
+        ["{fmu_zip_study}", "--serial", *OUT],
+        ["{fmu_zip_study}", "[study] fmu", "{zip_fmu}", "is not an FMU"],
+    ),
     case("aem-study", "workers-0", ["{study}", "--workers", "0", *OUT], ["--workers", "positive"]),
-    case("aem-study", "misspelled-option", ["{study}", "--wrokers", "2", *OUT], ["unknown option --wrokers"],
-         near="--workers"),
+    case(
+        "aem-study",
+        "misspelled-option",
+        ["{study}", "--wrokers", "2", *OUT],
+        ["unknown option --wrokers"],
+        near="--workers",
+    ),
     out_file_case("aem-study", 2, "{study}", "--serial"),
     # --- aem-identify fit|validate|synthesize (the results: fit -o FILE, validate --csv FILE, synthesize DIR)
-    case("aem-identify", "fit-input-missing", ["fit", "/no/such.csv", "-o", "{out}/params.json"],
-         ["input", "/no/such.csv"]),
-    case("aem-identify", "validate-parameter-file-missing",
-         ["validate", "/no/such.json", "{file}", "--csv", "{out}/validation.csv"], ["parameter file", "/no/such.json"]),
-    case("aem-identify", "validate-day-missing", ["validate", "{file}", "/no/such.csv", "--csv", "{out}/validation.csv"],
-         ["held-out day", "/no/such.csv"]),
+    case(
+        "aem-identify",
+        "fit-input-missing",
+        ["fit", "/no/such.csv", "-o", "{out}/params.json"],
+        ["input", "/no/such.csv"],
+    ),
+    case(
+        "aem-identify",
+        "validate-parameter-file-missing",
+        ["validate", "/no/such.json", "{file}", "--csv", "{out}/validation.csv"],
+        ["parameter file", "/no/such.json"],
+    ),
+    case(
+        "aem-identify",
+        "validate-day-missing",
+        ["validate", "{file}", "/no/such.csv", "--csv", "{out}/validation.csv"],
+        ["held-out day", "/no/such.csv"],
+    ),
     case("aem-identify", "synthesize-days-0", ["synthesize", "{out}", "--days", "0"], ["--days 0"]),
     case("aem-identify", "synthesize-hours-0", ["synthesize", "{out}", "--hours", "0"], ["--hours 0"]),
     case("aem-identify", "misspelled-option", ["synthesize", "{out}", "--dasy", "3"], ["'--dasy'"], near="--days"),
     case("aem-identify", "misspelled-subcommand", ["synthesise", "{out}"], ["'synthesise'"], near="synthesize"),
-    case("aem-identify", "synthesize-into-a-file", ["synthesize", "{file}", "--days", "1"], ["{file}", "cannot write"],
-         status=1),
+    case(
+        "aem-identify",
+        "synthesize-into-a-file",
+        ["synthesize", "{file}", "--days", "1"],
+        ["{file}", "cannot write"],
+        status=1,
+    ),
     case("aem-identify", "synthesize-hours-negative", ["synthesize", "{out}", "--hours", "-1"], ["--hours"]),
     case("aem-identify", "fit-max-gap-0", ["fit", "{file}", "--max-gap", "0"], ["--max-gap"]),
     case("aem-identify", "fit-separator-unknown", ["fit", "{file}", "--separator", "banana"], ["--separator"]),
@@ -208,18 +281,41 @@ TABLE = [
     # --- aem-run (prints the JSON for a worker on stdout as well; no result files)
     case("aem-run", "step-0", ["--reference", "{reference}", "--step", "0"], ["--step 0", "positive"]),
     case("aem-run", "step-negative", ["--reference", "{reference}", "--step", "-1"], ["--step -1", "positive"]),
-    case("aem-run", "misspelled-option", ["--reference", "{reference}", "--stpe", "1"], ["unknown argument --stpe"],
-         near="--step"),
-    case("aem-run", "reference-missing", ["--reference", "/no/such.f64", "--step", "1"],
-         ["--reference", "/no/such.f64"]),
-    case("aem-run", "fmu-missing", ["--fmu", "/no/such.fmu", "--reference", "{reference}", "--step", "1"],
-         ["--fmu", "/no/such.fmu"]),
-    case("aem-run", "fmu-text-file", ["--fmu", "{text_fmu}", "--reference", "{reference}", "--step", "1"],
-         ["--fmu", "{text_fmu}"]),
-    case("aem-run", "fmu-zip-without-model-description",
-         ["--fmu", "{zip_fmu}", "--reference", "{reference}", "--step", "1"], ["--fmu", "{zip_fmu}"]),
-    case("aem-run", "param-misspelled", ["--reference", "{reference}", "--step", "1", "--param", "nModlues=10"],
-         ["--param", "nModlues"], near="nModules"),
+    case(
+        "aem-run",
+        "misspelled-option",
+        ["--reference", "{reference}", "--stpe", "1"],
+        ["unknown argument --stpe"],
+        near="--step",
+    ),
+    case(
+        "aem-run", "reference-missing", ["--reference", "/no/such.f64", "--step", "1"], ["--reference", "/no/such.f64"]
+    ),
+    case(
+        "aem-run",
+        "fmu-missing",
+        ["--fmu", "/no/such.fmu", "--reference", "{reference}", "--step", "1"],
+        ["--fmu", "/no/such.fmu"],
+    ),
+    case(
+        "aem-run",
+        "fmu-text-file",
+        ["--fmu", "{text_fmu}", "--reference", "{reference}", "--step", "1"],
+        ["--fmu", "{text_fmu}"],
+    ),
+    case(
+        "aem-run",
+        "fmu-zip-without-model-description",
+        ["--fmu", "{zip_fmu}", "--reference", "{reference}", "--step", "1"],
+        ["--fmu", "{zip_fmu}"],
+    ),
+    case(
+        "aem-run",
+        "param-misspelled",
+        ["--reference", "{reference}", "--step", "1", "--param", "nModlues=10"],
+        ["--param", "nModlues"],
+        near="nModules",
+    ),
 ]
 
 STUDY = '[study]\ntitle = "command line"\nfmu = "{fmu}"\nhorizon = "10 s"\nstep = "1 s"\n'
@@ -244,12 +340,18 @@ def inputs(tmp_path, fmu_path):
         z.writestr("documentation/index.html", "<html></html>\n")
     (inputs / "existing_file").write_text("left as it was\n")
     np.full(10, 3e7, dtype="<f8").tofile(inputs / "reference.f64")
-    paths.update(text_fmu=str(inputs / "text.fmu"), zip_fmu=str(inputs / "no_model_description.fmu"),
-                 file=str(inputs / "existing_file"), reference=str(inputs / "reference.f64"))
-    for name, body in {**STUDIES,
-                       "fmu_missing_study": STUDIES["study"].replace("{fmu}", "/no/such.fmu"),
-                       "fmu_text_study": STUDIES["study"].replace("{fmu}", paths["text_fmu"]),
-                       "fmu_zip_study": STUDIES["study"].replace("{fmu}", paths["zip_fmu"])}.items():
+    paths.update(
+        text_fmu=str(inputs / "text.fmu"),
+        zip_fmu=str(inputs / "no_model_description.fmu"),
+        file=str(inputs / "existing_file"),
+        reference=str(inputs / "reference.f64"),
+    )
+    for name, body in {
+        **STUDIES,
+        "fmu_missing_study": STUDIES["study"].replace("{fmu}", "/no/such.fmu"),
+        "fmu_text_study": STUDIES["study"].replace("{fmu}", paths["text_fmu"]),
+        "fmu_zip_study": STUDIES["study"].replace("{fmu}", paths["zip_fmu"]),
+    }.items():
         (inputs / f"{name}.toml").write_text(body.replace("{fmu}", str(fmu_path)))
         paths[name] = str(inputs / f"{name}.toml")
     return paths
@@ -259,16 +361,22 @@ def inputs(tmp_path, fmu_path):
 def campaign(tmp_path_factory):
     """Two synthetic days (aem-identify synthesize), outside the cases' tmp_path."""
     folder = tmp_path_factory.mktemp("campaign") / "days"
-    done = subprocess.run([str(BIN / "aem-identify"), "synthesize", str(folder), "--days", "2", "--hours", "1"],
-                          capture_output=True, text=True, timeout=60)
+    done = subprocess.run(
+        [str(BIN / "aem-identify"), "synthesize", str(folder), "--days", "2", "--hours", "1"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert done.returncode == 0, done.stderr
     return str(folder)
 
 
 def contents(folder):
     """Every path under `folder` with, for files, its size and modification time."""
-    return {str(p.relative_to(folder)): (p.stat().st_size, p.stat().st_mtime_ns) if p.is_file() else None
-            for p in folder.rglob("*")}
+    return {
+        str(p.relative_to(folder)): (p.stat().st_size, p.stat().st_mtime_ns) if p.is_file() else None
+        for p in folder.rglob("*")
+    }
 
 
 def run(argv, timeout=60):
@@ -303,6 +411,7 @@ def test_a_bad_argument_is_one_line_before_any_work(request, tmp_path, inputs, c
 
 # --- a failure during the work -------------------------------------------------------------------
 
+
 def guid_mismatch(fmu_path, path):
     """The FMU with another GUID in its model description: the binary refuses to instantiate."""
     with zipfile.ZipFile(fmu_path) as z, zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as out:
@@ -317,33 +426,73 @@ def guid_mismatch(fmu_path, path):
 FAILING_TOOL = '#!/bin/sh\necho "the disk is full" >&2\nexit 3\n'
 
 FAILURES = [
-    pytest.param("wind_hub", ["--fmu", "{guid_fmu}", "--duration", "2", *OUT], "does not match the model description",
-                 id="wind_hub:fmu-refuses-to-instantiate"),
-    pytest.param("aem-prequalify", ["--fmu", "{guid_fmu}", "--modules", "10", "--products", "mFRR up",
-                                    "--compensation", "off", "--jobs", "1", "--no-plots", *OUT], "does not match the model description",
-                 id="aem-prequalify:fmu-refuses-to-instantiate"),
-    pytest.param("validation_day", ["--tool", "{failing_tool}", "--days", "1", *OUT], "the disk is full",
-                 id="validation_day:aem-identify-fails"),
-    pytest.param("step_schedule", ["--fmu", "{guid_fmu}", *OUT], "does not match the model description",
-                 id="step_schedule:fmu-refuses-to-instantiate"),
-    pytest.param("step_responses", ["--fmu", "{guid_fmu}", "--duration", "2", *OUT], "does not match the model description",
-                 id="step_responses:fmu-refuses-to-instantiate"),
-    pytest.param("cigre_scenario", ["--fmu", "{guid_fmu}", "--duration", "2", *OUT], "does not match the model description",
-                 id="cigre_scenario:fmu-refuses-to-instantiate"),
-    pytest.param("plot_validation", ["{empty_csv}", "{out}/validation.png"], "no rows",
-                 id="plot_validation:csv-without-rows"),
+    pytest.param(
+        "wind_hub",
+        ["--fmu", "{guid_fmu}", "--duration", "2", *OUT],
+        "does not match the model description",
+        id="wind_hub:fmu-refuses-to-instantiate",
+    ),
+    pytest.param(
+        "aem-prequalify",
+        [
+            "--fmu",
+            "{guid_fmu}",
+            "--modules",
+            "10",
+            "--products",
+            "mFRR up",
+            "--compensation",
+            "off",
+            "--jobs",
+            "1",
+            "--no-plots",
+            *OUT,
+        ],
+        "does not match the model description",
+        id="aem-prequalify:fmu-refuses-to-instantiate",
+    ),
+    pytest.param(
+        "validation_day",
+        ["--tool", "{failing_tool}", "--days", "1", *OUT],
+        "the disk is full",
+        id="validation_day:aem-identify-fails",
+    ),
+    pytest.param(
+        "step_schedule",
+        ["--fmu", "{guid_fmu}", *OUT],
+        "does not match the model description",
+        id="step_schedule:fmu-refuses-to-instantiate",
+    ),
+    pytest.param(
+        "step_responses",
+        ["--fmu", "{guid_fmu}", "--duration", "2", *OUT],
+        "does not match the model description",
+        id="step_responses:fmu-refuses-to-instantiate",
+    ),
+    pytest.param(
+        "cigre_scenario",
+        ["--fmu", "{guid_fmu}", "--duration", "2", *OUT],
+        "does not match the model description",
+        id="cigre_scenario:fmu-refuses-to-instantiate",
+    ),
+    pytest.param(
+        "plot_validation", ["{empty_csv}", "{out}/validation.png"], "no rows", id="plot_validation:csv-without-rows"
+    ),
 ]
 
 
 @pytest.mark.parametrize("command, argv, says", FAILURES)
-def test_a_failure_during_the_work_is_one_line_and_debug_shows_the_traceback(tmp_path, fmu_path, command, argv,
-                                                                            says):
+def test_a_failure_during_the_work_is_one_line_and_debug_shows_the_traceback(tmp_path, fmu_path, command, argv, says):
     tool = tmp_path / "failing-aem-identify"
     tool.write_text(FAILING_TOOL)
     tool.chmod(0o755)
     (tmp_path / "empty.csv").write_text("")
-    paths = {"out": str(tmp_path / "out"), "guid_fmu": str(guid_mismatch(fmu_path, tmp_path / "guid.fmu")),
-             "failing_tool": str(tool), "empty_csv": str(tmp_path / "empty.csv")}
+    paths = {
+        "out": str(tmp_path / "out"),
+        "guid_fmu": str(guid_mismatch(fmu_path, tmp_path / "guid.fmu")),
+        "failing_tool": str(tool),
+        "empty_csv": str(tmp_path / "empty.csv"),
+    }
     prefix, program = PROGRAMS[command]
     argv = [*prefix, *(a.format(**paths) for a in argv)]
 

@@ -13,6 +13,7 @@ OMSimulator is not among them: its PyPI package downloads its binaries while it 
 Neither engine reads FMI enumerations (libcosim ignores them with a warning, Ecos has no
 property for them), so the hubs' dispatch is set through the FMU packaged with
 --integer-enumerations: the same binary, the enumerations declared as Integers."""
+
 import csv
 import subprocess
 import sys
@@ -60,8 +61,12 @@ def fmpy_run(fmu_path, integers, schedule, stop, sample_every=1):
     """One instance alone through fmpy: outputs after initialisation and every `sample_every` steps."""
     md = read_model_description(str(fmu_path))
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu_path)), modelIdentifier=md.coSimulation.modelIdentifier,
-                    instanceName="alone")
+    fmu = FMU2Slave(
+        guid=md.guid,
+        unzipDirectory=extract(str(fmu_path)),
+        modelIdentifier=md.coSimulation.modelIdentifier,
+        instanceName="alone",
+    )
     fmu.instantiate(loggingOn=False)
     if integers:
         fmu.setInteger([vr[k] for k in integers], list(integers.values()))
@@ -92,8 +97,20 @@ def assert_bits(got, want, what):
 def integer_fmu(fmu_path, tmp_path_factory):
     """The packaged binary with the enumerations declared as Integers."""
     out = tmp_path_factory.mktemp("integer") / "AemElectrolyser.fmu"
-    subprocess.run([sys.executable, str(ROOT / "packaging" / "package.py"), "--integer-enumerations", "--from", str(fmu_path),
-                    "--out", str(out)], check=True, capture_output=True, timeout=120)
+    subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "packaging" / "package.py"),
+            "--integer-enumerations",
+            "--from",
+            str(fmu_path),
+            "--out",
+            str(out),
+        ],
+        check=True,
+        capture_output=True,
+        timeout=120,
+    )
     return out
 
 

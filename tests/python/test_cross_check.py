@@ -2,6 +2,7 @@
 finds no problem, fmpy's own cross-check import of the linux64 FMU passes against the
 closed-form reference, and the FMU matches that reference far tighter than the cross-check's
 band (the reference is the paper's model in closed form, not the FMU's output)."""
+
 import subprocess
 import sys
 import zipfile
@@ -41,7 +42,9 @@ def test_the_tree_has_a_folder_for_every_platform_inside_the_fmu(tree, fmu_path)
     assert [f.parts[-4] for f in folders] == platforms
     for folder in folders:
         names = sorted(p.name for p in folder.iterdir())
-        assert names == sorted([f"{MODEL}.fmu", f"{MODEL}_in.csv", f"{MODEL}_ref.csv", f"{MODEL}_ref.opt", "ReadMe.txt"])
+        assert names == sorted(
+            [f"{MODEL}.fmu", f"{MODEL}_in.csv", f"{MODEL}_ref.csv", f"{MODEL}_ref.opt", "ReadMe.txt"]
+        )
 
 
 #: `python -m fmpy.cross_check` as shipped, but for the result plot (plotly with kaleido, which
@@ -56,8 +59,23 @@ runpy.run_module("fmpy.cross_check", run_name="__main__")
 
 
 def test_fmpy_imports_the_linux_fmu_and_the_vendor_tree_validates(tree):
-    run([sys.executable, "-c", FMPY_CROSS_CHECK, "--fmus_dir", tree / "fmus", "--include", "linux64",
-         "--simulate", "--result_dir", tree / "results", "--report", tree / "report.html"], cwd=tree)
+    run(
+        [
+            sys.executable,
+            "-c",
+            FMPY_CROSS_CHECK,
+            "--fmus_dir",
+            tree / "fmus",
+            "--include",
+            "linux64",
+            "--simulate",
+            "--result_dir",
+            tree / "results",
+            "--report",
+            tree / "report.html",
+        ],
+        cwd=tree,
+    )
     passed = list((tree / "results").rglob("passed"))
     failed = list((tree / "results").rglob("failed")) + list((tree / "results").rglob("rejected"))
     assert len(passed) == 1 and not failed, (passed, failed)
@@ -70,8 +88,14 @@ def test_the_fmu_meets_the_closed_form_reference_to_1e9(tree):
     (folder,) = [f for f in model_folders(tree) if f.parts[-4] == "linux64"]
     reference = read_csv(folder / f"{MODEL}_ref.csv")
     inputs = read_csv(folder / f"{MODEL}_in.csv")
-    result = simulate_fmu(folder / f"{MODEL}.fmu", stop_time=760.0, step_size=1.0, output_interval=1.0,
-                          input=inputs, output=list(reference.dtype.names[1:]))
+    result = simulate_fmu(
+        folder / f"{MODEL}.fmu",
+        stop_time=760.0,
+        step_size=1.0,
+        output_interval=1.0,
+        input=inputs,
+        output=list(reference.dtype.names[1:]),
+    )
     assert len(result) == len(reference)
     np.testing.assert_array_equal(result["time"], reference["time"])
     for name in reference.dtype.names[1:]:

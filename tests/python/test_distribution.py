@@ -8,6 +8,7 @@ Expectations: the closed-form steady state (I = K u, P = (V0 + R I) I), the clos
 an equal hub at constant power, the parameters the synthetic campaign was made with, and the
 prequalification the checkout's own package computes on the same FMU.
 """
+
 import csv
 import hashlib
 import json
@@ -102,8 +103,19 @@ def test_aem_prequalify_of_the_wheel_gives_the_checkouts_capacities(installed, t
     bin_dir, env, work = installed
     args = ["--modules", 100, "--baseline", 80, "--products", "mFRR up,FFR 49.7 Hz", "--jobs", 2, "--no-plots"]
     run([bin_dir / "aem-prequalify", *args, "--out", tmp_path / "wheel"], cwd=work, env=env)
-    run([sys.executable, "-m", "aem_electrolyser.reserves.prequalify", "--fmu", fmu_path, *args,
-         "--out", tmp_path / "checkout"], cwd=ROOT)
+    run(
+        [
+            sys.executable,
+            "-m",
+            "aem_electrolyser.reserves.prequalify",
+            "--fmu",
+            fmu_path,
+            *args,
+            "--out",
+            tmp_path / "checkout",
+        ],
+        cwd=ROOT,
+    )
     assert summary(tmp_path / "wheel") == summary(tmp_path / "checkout")
     assert len(summary(tmp_path / "wheel")) == 4  # two products, plain and compensated
 
@@ -114,9 +126,11 @@ def test_aem_study_of_the_wheel_runs_two_scenarios_on_two_workers(installed, tmp
     bin_dir, env, work = installed
     hub_power, hours = 0.8e6, 1.0
     (work / "flat.csv").write_text(f"time [s],power [kW]\n0,{hub_power / 1e3}\n{hours * 3600},{hub_power / 1e3}\n")
-    (work / "study.toml").write_text(f'[study]\ntitle = "wheel"\nhorizon = "{hours} h"\n'
-                                     '[series.flat]\nfile = "flat.csv"\ncolumn = "power [kW]"\n'
-                                     '[axes]\nnModules = [400, 500]\n')
+    (work / "study.toml").write_text(
+        f'[study]\ntitle = "wheel"\nhorizon = "{hours} h"\n'
+        '[series.flat]\nfile = "flat.csv"\ncolumn = "power [kW]"\n'
+        "[axes]\nnModules = [400, 500]\n"
+    )
     run([bin_dir / "aem-study", "study.toml", "--workers", 2, "--no-plots", "--out", "out"], cwd=work, env=env)
     with open(work / "out" / "kpis.csv", newline="") as f:
         rows = list(csv.DictReader(f))
@@ -126,10 +140,12 @@ def test_aem_study_of_the_wheel_runs_two_scenarios_on_two_workers(installed, tmp
         assert row["status"] == "done", row
         current = PAPER["gain"] * setpoint_for(hub_power / n)
         assert float(row["energy drawn [MWh]"]) == pytest.approx(hub_power * hours / 1e6, rel=1e-9)
-        assert float(row["hydrogen [kg]"]) == pytest.approx(n * PAPER["h2Coefficient"] * current * hours * KG_PER_NL,
-                                                            rel=1e-9)
-        assert float(row["hub rated power [MW]"]) == pytest.approx(n * module_power(PAPER["maxSetpoint"]) / 1e6,
-                                                                   rel=1e-9)
+        assert float(row["hydrogen [kg]"]) == pytest.approx(
+            n * PAPER["h2Coefficient"] * current * hours * KG_PER_NL, rel=1e-9
+        )
+        assert float(row["hub rated power [MW]"]) == pytest.approx(
+            n * module_power(PAPER["maxSetpoint"]) / 1e6, rel=1e-9
+        )
 
 
 def identified(params_file):
@@ -140,7 +156,9 @@ def identified(params_file):
 
 def test_aem_identify_of_the_wheel_recovers_the_synthetic_truth(installed):
     bin_dir, env, work = installed
-    run([bin_dir / "aem-identify", "synthesize", "campaign", "--days", 2, "--hours", 4, "--seed", 11], cwd=work, env=env)
+    run(
+        [bin_dir / "aem-identify", "synthesize", "campaign", "--days", 2, "--hours", 4, "--seed", 11], cwd=work, env=env
+    )
     run([bin_dir / "aem-identify", "fit", "campaign", "-o", "params.json"], cwd=work, env=env)
     found = identified(work / "params.json")
     for name, true in TRUTH.items():
@@ -153,16 +171,20 @@ def test_a_missing_extra_names_the_pip_install_that_brings_it(installed):
     assert done.returncode == 1
     assert done.stderr.strip().splitlines() == [
         "python -m aem_electrolyser.examples.grid_cosim needs the [grid] extra (tops is not installed): "
-        "pip install 'aem-electrolyser[grid]'"], done.stderr
+        "pip install 'aem-electrolyser[grid]'"
+    ], done.stderr
 
 
 def test_a_core_install_names_the_extra_of_each_command(tmp_path):
     """The core wheel alone (fmpy, numpy, scipy): every command that needs more says which extra."""
     bin_dir, env = fresh_venv(tmp_path / "venv", str(dist_file(f"aem_electrolyser-{VERSION}-{LINUX_TAG}.whl")))
-    for command, extra in ((["aem-study", "x.toml"], "study"), (["aem-prequalify"], "reserves"),
-                           (["python", "-m", "aem_electrolyser.examples.step_schedule"], "plots"),
-                           (["python", "-m", "aem_electrolyser.mosaik.cigre_scenario"], "mosaik"),
-                           (["python", "-m", "aem_electrolyser.helics.hub_federate"], "helics")):
+    for command, extra in (
+        (["aem-study", "x.toml"], "study"),
+        (["aem-prequalify"], "reserves"),
+        (["python", "-m", "aem_electrolyser.examples.step_schedule"], "plots"),
+        (["python", "-m", "aem_electrolyser.mosaik.cigre_scenario"], "mosaik"),
+        (["python", "-m", "aem_electrolyser.helics.hub_federate"], "helics"),
+    ):
         done = run([bin_dir / command[0], *command[1:]], cwd=tmp_path, env=env, check=False)
         lines = done.stderr.strip().splitlines()
         assert done.returncode == 1 and len(lines) == 1, (command, done.stderr)
@@ -183,9 +205,13 @@ def test_the_windows_wheel_holds_the_windows_commands_and_both_binaries(wine, tm
     names, tags, metadata, _ = wheel_metadata(wheel)
     assert "Tag: py3-none-win_amd64" in tags.splitlines() and "Root-Is-Purelib: false" in tags
     assert f"Version: {VERSION}" in metadata.splitlines()
-    for name in ("aem_electrolyser/bin/aem-identify.exe", "aem_electrolyser/bin/aem-run.exe",
-                 "aem_electrolyser/data/AemElectrolyser.fmu", "aem_electrolyser/__init__.py",
-                 "aem_electrolyser/locate.py"):
+    for name in (
+        "aem_electrolyser/bin/aem-identify.exe",
+        "aem_electrolyser/bin/aem-run.exe",
+        "aem_electrolyser/data/AemElectrolyser.fmu",
+        "aem_electrolyser/__init__.py",
+        "aem_electrolyser/locate.py",
+    ):
         assert name in names, name
     assert not any(n.startswith("aem_electrolyser/bin/") and not n.endswith(".exe") for n in names)
     with zipfile.ZipFile(wheel) as z:
@@ -222,8 +248,12 @@ def test_the_sdist_builds_a_working_wheel_from_its_own_files(tmp_path):
     assert not (source / ".git").exists() and not (source / "target").exists()
     env = dict(os.environ, CARGO_TARGET_DIR=str(ROOT / "target"))
     env.pop("AEM_WHEEL_PLATFORM", None)
-    run([sys.executable, "-m", "build", "--wheel", "--no-isolation", "--outdir", tmp_path / "wheel", source],
-        cwd=tmp_path, env=env, timeout=1200)
+    run(
+        [sys.executable, "-m", "build", "--wheel", "--no-isolation", "--outdir", tmp_path / "wheel", source],
+        cwd=tmp_path,
+        env=env,
+        timeout=1200,
+    )
     (wheel,) = (tmp_path / "wheel").glob("*.whl")
     # cargo-zigbuild is in this venv: the build links against glibc 2.17, as the release's does.
     assert wheel.name == f"aem_electrolyser-{VERSION}-{LINUX_TAG}.whl"
@@ -246,9 +276,14 @@ def test_sha256sums_verifies_every_file_of_the_bundle():
         listed[name] = digest
     files = {p.name for p in DIST.iterdir() if p.is_file() and p.name != "SHA256SUMS"}
     assert set(listed) == files
-    assert files == {f"AemElectrolyser-{VERSION}.fmu", f"aem_electrolyser-{VERSION}-{LINUX_TAG}.whl",
-                     f"aem_electrolyser-{VERSION}-py3-none-win_amd64.whl", f"aem_electrolyser-{VERSION}.tar.gz",
-                     f"aem-identify-{VERSION}-linux-x86_64", f"aem-identify-{VERSION}-windows-x86_64.exe"}
+    assert files == {
+        f"AemElectrolyser-{VERSION}.fmu",
+        f"aem_electrolyser-{VERSION}-{LINUX_TAG}.whl",
+        f"aem_electrolyser-{VERSION}-py3-none-win_amd64.whl",
+        f"aem_electrolyser-{VERSION}.tar.gz",
+        f"aem-identify-{VERSION}-linux-x86_64",
+        f"aem-identify-{VERSION}-windows-x86_64.exe",
+    }
     for name, digest in listed.items():
         assert hashlib.sha256((DIST / name).read_bytes()).hexdigest() == digest, name
     done = run(["sha256sum", "-c", "SHA256SUMS"], cwd=DIST)

@@ -4,6 +4,7 @@ in the FMU's documentation/index.html (both parsed as HTML), with the model desc
 causality, type and start; index.html is what packaging/docs_reference.py makes of the model
 description; every command has its page with its own --help; every module of the package is on
 the Python API pages; the README stays short and keeps the quick start."""
+
 import importlib.util
 import os
 import re
@@ -33,9 +34,25 @@ docs_reference = load_generator()
 def site(tmp_path_factory):
     """The site, built strictly into a fresh folder."""
     out = tmp_path_factory.mktemp("site")
-    done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--quiet", "-f", str(ROOT / "mkdocs.yml"),
-                           "-d", str(out)], cwd=ROOT, capture_output=True, text=True, timeout=300,
-                          env={**os.environ, "NO_MKDOCS_2_WARNING": "1"})
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mkdocs",
+            "build",
+            "--strict",
+            "--quiet",
+            "-f",
+            str(ROOT / "mkdocs.yml"),
+            "-d",
+            str(out),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "NO_MKDOCS_2_WARNING": "1"},
+    )
     assert done.returncode == 0, done.stderr[-5000:]
     return out
 
@@ -107,8 +124,20 @@ def check_variables(html, where):
 
 def test_the_site_builds_strictly(site):
     assert (site / "index.html").is_file()
-    for page in ("getting-started", "using-the-fmu", "model", "hub", "identification", "studies", "grid-services",
-                 "cosimulation", "platforms", "validation", "robustness", "development"):
+    for page in (
+        "getting-started",
+        "using-the-fmu",
+        "model",
+        "hub",
+        "identification",
+        "studies",
+        "grid-services",
+        "cosimulation",
+        "platforms",
+        "validation",
+        "robustness",
+        "development",
+    ):
         assert (site / page / "index.html").is_file(), page
 
 
@@ -125,8 +154,9 @@ def test_every_variable_is_in_the_fmus_documentation():
 
 def test_the_fmus_documentation_is_what_the_generator_makes():
     committed = (ROOT / "documentation" / "index.html").read_text("utf-8")
-    assert docs_reference.fmu_documentation() == committed, \
+    assert docs_reference.fmu_documentation() == committed, (
         "documentation/index.html is out of date: run .venv/bin/python packaging/docs_reference.py"
+    )
 
 
 def test_the_generator_follows_the_model_description():
@@ -183,8 +213,11 @@ def test_every_command_is_listed():
 
 def test_every_module_is_on_the_python_api_pages(site):
     package = ROOT / "python" / "aem_electrolyser"
-    modules = {".".join(("aem_electrolyser", *p.relative_to(package).with_suffix("").parts)).removesuffix(".__init__")
-               for p in package.rglob("*.py") if p.name != "__main__.py"}
+    modules = {
+        ".".join(("aem_electrolyser", *p.relative_to(package).with_suffix("").parts)).removesuffix(".__init__")
+        for p in package.rglob("*.py")
+        if p.name != "__main__.py"
+    }
     html = "".join(p.read_text("utf-8") for p in (site / "reference" / "python").rglob("index.html"))
     ids = set(re.findall(r'id="(aem_electrolyser[\w.]*)"', html))
     assert not modules - ids, f"not on the Python API pages: {sorted(modules - ids)}"

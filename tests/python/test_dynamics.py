@@ -15,6 +15,7 @@ whose integrals are written out in `ExpSum`. Every expectation here comes from t
 formulas (or from scipy root finding on them), never from the FMU's own output, except the
 step-size invariance test, which compares the FMU with itself by design.
 """
+
 import math
 
 import numpy as np

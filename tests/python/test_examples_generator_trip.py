@@ -4,6 +4,7 @@ that trips and the governors' droop after it, the power balance of the network, 
 request as the closed form of the frequency the hub was given, the hub's power as the closed-form
 response of its modules to that request (plain: both poles; compensated: the fast pole alone),
 and the order of the three runs (reserve lifts the frequency; compensation reduces faster)."""
+
 import csv
 import math
 import subprocess
@@ -22,8 +23,8 @@ pytestmark = pytest.mark.filterwarnings("ignore:numpy.core is deprecated:Depreca
 DURATION, TRIP, EXCHANGE, DT = 10.0, 1.0, 0.1, 5e-3
 CAPACITY, LOAD, N = 12e6, 0.8, generator_trip.N_MODULES
 K, V0, R = PAPER["gain"], PAPER["voltageIntercept"], PAPER["ohmicResistance"]
-DROOP = 1 / 0.05 + 0.02              # k2a's TGOV1: 1/R + D_t [pu power / pu speed] on each unit's rating
-MVA_LEFT = 3 * 900 + 450             # G2, G3, G4 and the G1 unit that stays
+DROOP = 1 / 0.05 + 0.02  # k2a's TGOV1: 1/R + D_t [pu power / pu speed] on each unit's rating
+MVA_LEFT = 3 * 900 + 450  # G2, G3, G4 and the G1 unit that stays
 STIFFNESS = DROOP * MVA_LEFT / 50.0  # MW/Hz
 
 
@@ -31,8 +32,16 @@ STIFFNESS = DROOP * MVA_LEFT / 50.0  # MW/Hz
 def trip(fmu_path, tmp_path_factory):
     out = tmp_path_factory.mktemp("out") / "generator_trip"
     start = time.perf_counter()
-    cases, table = generator_trip.run(fmu_path, duration=DURATION, trip_time=TRIP, capacity=CAPACITY, load=LOAD,
-                                      exchange=EXCHANGE, out=out.parent, verbose=False)
+    cases, table = generator_trip.run(
+        fmu_path,
+        duration=DURATION,
+        trip_time=TRIP,
+        capacity=CAPACITY,
+        load=LOAD,
+        exchange=EXCHANGE,
+        out=out.parent,
+        verbose=False,
+    )
     print(f"\ngenerator_trip.run, 3 x {DURATION:g} s: {time.perf_counter() - start:.1f} s")
     return out, cases, table
 
@@ -48,19 +57,19 @@ def test_equilibrium_before_the_trip(trip):
     p_ref = LOAD * N * module_power(PAPER["maxSetpoint"])
     for name, o in cases.items():
         before = o["time"] < TRIP
-        assert np.abs(o["f"][before] - 50.0).max() < 1e-9, name           # Hz
+        assert np.abs(o["f"][before] - 50.0).max() < 1e-9, name  # Hz
         assert np.abs(o["f_coi"][before] - 50.0).max() < 1e-9, name
         assert np.abs(o["f_hub"][before] - 50.0).max() < 1e-9, name
         assert np.all(o["request"][before] == 0.0), name
-        assert o["hub"][before] == pytest.approx(p_ref, rel=1e-9), name     # the hub draws its reference
+        assert o["hub"][before] == pytest.approx(p_ref, rel=1e-9), name  # the hub draws its reference
         assert o["vsc_hub"][before] == pytest.approx(p_ref, rel=1e-9), name  # and the VSC draws the hub's power
-        assert np.ptp(o["gen"][before]) < 1.0, name                          # W
+        assert np.ptp(o["gen"][before]) < 1.0, name  # W
 
 
 def test_one_350_mw_unit_trips_and_the_droop_of_the_others_takes_over(trip):
     _, cases, _ = trip
     for name, o in cases.items():
-        assert o["tripped"] == pytest.approx(350e6, rel=1e-9), name   # k2a's G1 (700 MW) as two units
+        assert o["tripped"] == pytest.approx(350e6, rel=1e-9), name  # k2a's G1 (700 MW) as two units
         # quasi-steady state at the end: the governors left (5 % droop on 3150 MVA, plus D_t) carry
         # the lost unit's power and the change of demand in proportion to the frequency drop, and the
         # machines turn their mechanical power P_m at speed 1 + w into the electric power P_m/(1 + w)
@@ -84,7 +93,7 @@ def test_reserve_request_is_the_fcr_d_up_closed_form_of_the_frequency_given(trip
         e = exchanges(o)
         # the hub is given the PLL's frequency at B12 at each exchange instant (the sample before)
         stride = int(round(EXCHANGE / DT))
-        assert np.array_equal(e["f_hub"][1:], o["f"][stride - 1:-1:stride]), name
+        assert np.array_equal(e["f_hub"][1:], o["f"][stride - 1 : -1 : stride]), name
         capacity = o["capacity"]
         expected = -capacity * np.clip((49.9 - e["f_hub"]) / 0.4, 0.0, 1.0)
         assert e["request"] == pytest.approx(expected, abs=1e-6), name  # W
@@ -124,7 +133,7 @@ def test_reserve_lifts_the_frequency_and_compensation_reduces_faster(trip):
     for o in (plain, comp):
         assert np.abs(o["f"][quiet] - none["f"][quiet]).max() < 1e-12
     for o in (plain, comp):
-        assert o["f"].min() >= none["f"].min() - 1e-6        # nadir not lower (Hz)
+        assert o["f"].min() >= none["f"].min() - 1e-6  # nadir not lower (Hz)
         assert o["f"][-1] > none["f"][-1]
     at = np.searchsorted(none["time"], TRIP + 7.5 + DT / 2)  # the sample holding the power at the trip + 7.5 s
     assert none["time"][at] == pytest.approx(TRIP + 7.5 + DT)

@@ -1,5 +1,6 @@
 """Smoke runs of examples 3 (aem_electrolyser.examples.wind_hub) and 4 (aem_electrolyser.examples.grid_cosim) through the
 packaged hub FMU, with short horizons, and the numbers they must get right."""
+
 import csv
 
 import numpy as np
@@ -36,8 +37,11 @@ def test_wind_hub_energy_balance(wind_hub_run):
     header, data = rows[0], np.array(rows[1:], dtype=float)
     col = {name: i for i, name in enumerate(header)}
     for d in runs:
-        assert np.allclose(data[:, col["wind power [W]"]],
-                           data[:, col[f"{d} hub power [W]"]] + data[:, col[f"{d} grid exchange [W]"]], rtol=1e-9)
+        assert np.allclose(
+            data[:, col["wind power [W]"]],
+            data[:, col[f"{d} hub power [W]"]] + data[:, col[f"{d} grid exchange [W]"]],
+            rtol=1e-9,
+        )
     assert len(data) == len(t) == 901
     assert out.with_suffix(".png").stat().st_size > 10_000
 
@@ -58,8 +62,8 @@ def cosim(fmu_path):
 
 def test_tops_starts_in_equilibrium(cosim):
     steady = cosim["steady wind"]
-    assert np.abs(steady["df"]).max() < 1e-6                         # Hz: no start transient
-    assert np.abs(steady["v"] - steady["v0"]).max() < 1e-7          # pu
+    assert np.abs(steady["df"]).max() < 1e-6  # Hz: no start transient
+    assert np.abs(steady["v"] - steady["v0"]).max() < 1e-7  # pu
     assert np.allclose(steady["vsc_hub"], steady["hub"], rtol=1e-6)  # VSC draws the hub's power
     assert np.allclose(steady["vsc_wind"], steady["wind"], rtol=1e-6)
 
@@ -67,8 +71,8 @@ def test_tops_starts_in_equilibrium(cosim):
 def test_gust_moves_frequency_and_the_vsc_follows_the_hub(cosim):
     gust = cosim["gust"]
     exchange = gust["vsc_wind"] - gust["vsc_hub"]
-    assert exchange.max() > 10e6                       # the hub lags the gust: export to the grid
-    assert np.abs(gust["df"]).max() > 1e-3             # Hz, visible in a 3.6 GW system
+    assert exchange.max() > 10e6  # the hub lags the gust: export to the grid
+    assert np.abs(gust["df"]).max() > 1e-3  # Hz, visible in a 3.6 GW system
     assert np.abs(gust["df"]).max() < 0.05
     # after the gust the hub VSC draws the FMU's power again
     late = gust["time"] > 15.0

@@ -6,6 +6,7 @@ aem_electrolyser.examples.validation_day (a two-day campaign): identified parame
 truth, an FMU that carries them, and a held-out current RMSE near the generator's noise that
 agrees with `aem-identify validate`.
 """
+
 import csv
 import hashlib
 import math
@@ -24,8 +25,13 @@ TRUTH = dict(gain=0.512, rampUpLimit=0.18, voltageIntercept=36.4, ohmicResistanc
 
 
 def run_example(name, *args):
-    result = subprocess.run([sys.executable, "-m", f"aem_electrolyser.examples.{name}", *map(str, args)],
-                            cwd=ROOT, capture_output=True, text=True, timeout=300)
+    result = subprocess.run(
+        [sys.executable, "-m", f"aem_electrolyser.examples.{name}", *map(str, args)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 0, result.stdout + result.stderr
     return result.stdout
 
@@ -57,12 +63,27 @@ def test_the_quick_start_demo_warns_only_of_its_excursion(fmu_path, tmp_path):
     """The demo (scripts/demo.sh runs it) gives fmpy every input, so its only message is the
     FMU's own warning when the schedule leaves the operating window (40 % at 2100 s); the run
     ends at 100 % in steady state, current K*100."""
-    result = subprocess.run([sys.executable, "-m", "aem_electrolyser.examples.step_schedule", "--fmu", str(fmu_path),
-                             "--out", str(tmp_path / "demo")], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "aem_electrolyser.examples.step_schedule",
+            "--fmu",
+            str(fmu_path),
+            "--out",
+            str(tmp_path / "demo"),
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 0, result.stderr
     messages = result.stderr.splitlines()
-    assert messages == ["[WARNING] setpoint = 40 % is outside the operating window [60, 100] %; "
-                        "the module runs at 60 % until it returns"], messages
+    assert messages == [
+        "[WARNING] setpoint = 40 % is outside the operating window [60, 100] %; "
+        "the module runs at 60 % until it returns"
+    ], messages
     last = read_rows(tmp_path / "demo" / "step_schedule.csv")[-1]
     assert float(last["current [A]"]) == pytest.approx(PAPER["gain"] * 100.0, rel=1e-3)
 
@@ -70,8 +91,9 @@ def test_the_quick_start_demo_warns_only_of_its_excursion(fmu_path, tmp_path):
 def test_step_responses_match_the_closed_form(fmu_path, tmp_path):
     out = run_example("step_responses", "--fmu", fmu_path, "--out", tmp_path, "--duration", 1500, "--dt", 0.5)
     rows = read_rows(tmp_path / "step_responses_table.csv")
-    assert [(float(r["from [%]"]), float(r["to [%]"])) for r in rows] == \
-        [(100, 100 - s) for s in (5, 10, 20, 30, 40)] + [(60, 60 + s) for s in (5, 10, 20, 30, 40)]
+    assert [(float(r["from [%]"]), float(r["to [%]"])) for r in rows] == [
+        (100, 100 - s) for s in (5, 10, 20, 30, 40)
+    ] + [(60, 60 + s) for s in (5, 10, 20, 30, 40)]
     for r in rows:
         u0, u1 = float(r["from [%]"]), float(r["to [%]"])
         assert 60 <= min(u0, u1) and max(u0, u1) <= 100

@@ -14,6 +14,7 @@ What is checked, against the FMI 2.0 standard (chapters 2 and 4) and this FMU's 
 7. Debug-logging categories.
 8. End to end with fmpy.simulate_fmu.
 """
+
 import math
 import os
 import random
@@ -69,18 +70,42 @@ INITIAL_SETPOINT = 80.0
 
 #: FMI 2.0 section 2.1: functions every FMU exports ...
 FMI2_COMMON_FUNCTIONS = (
-    "fmi2GetTypesPlatform", "fmi2GetVersion", "fmi2SetDebugLogging", "fmi2Instantiate",
-    "fmi2FreeInstance", "fmi2SetupExperiment", "fmi2EnterInitializationMode",
-    "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2Reset", "fmi2GetReal", "fmi2GetInteger",
-    "fmi2GetBoolean", "fmi2GetString", "fmi2SetReal", "fmi2SetInteger", "fmi2SetBoolean",
-    "fmi2SetString", "fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate",
-    "fmi2SerializedFMUstateSize", "fmi2SerializeFMUstate", "fmi2DeSerializeFMUstate",
+    "fmi2GetTypesPlatform",
+    "fmi2GetVersion",
+    "fmi2SetDebugLogging",
+    "fmi2Instantiate",
+    "fmi2FreeInstance",
+    "fmi2SetupExperiment",
+    "fmi2EnterInitializationMode",
+    "fmi2ExitInitializationMode",
+    "fmi2Terminate",
+    "fmi2Reset",
+    "fmi2GetReal",
+    "fmi2GetInteger",
+    "fmi2GetBoolean",
+    "fmi2GetString",
+    "fmi2SetReal",
+    "fmi2SetInteger",
+    "fmi2SetBoolean",
+    "fmi2SetString",
+    "fmi2GetFMUstate",
+    "fmi2SetFMUstate",
+    "fmi2FreeFMUstate",
+    "fmi2SerializedFMUstateSize",
+    "fmi2SerializeFMUstate",
+    "fmi2DeSerializeFMUstate",
     "fmi2GetDirectionalDerivative",
 )
 #: ... and (section 4.2) those of co-simulation.
 FMI2_CS_FUNCTIONS = (
-    "fmi2SetRealInputDerivatives", "fmi2GetRealOutputDerivatives", "fmi2DoStep", "fmi2CancelStep",
-    "fmi2GetStatus", "fmi2GetRealStatus", "fmi2GetIntegerStatus", "fmi2GetBooleanStatus",
+    "fmi2SetRealInputDerivatives",
+    "fmi2GetRealOutputDerivatives",
+    "fmi2DoStep",
+    "fmi2CancelStep",
+    "fmi2GetStatus",
+    "fmi2GetRealStatus",
+    "fmi2GetIntegerStatus",
+    "fmi2GetBooleanStatus",
     "fmi2GetStringStatus",
 )
 
@@ -289,9 +314,14 @@ def test_enumerations_name_their_items_and_keep_the_integer_codes(fmu_path, mode
         assert all(item in line for item in items), (name, line)
 
 
-@pytest.mark.parametrize("name, code, label", [
-    ("dispatch", 2, "sequential"), ("dispatch", 3, "rotation"), ("belowMinimum", 2, "off"),
-])
+@pytest.mark.parametrize(
+    "name, code, label",
+    [
+        ("dispatch", 2, "sequential"),
+        ("dispatch", 3, "rotation"),
+        ("belowMinimum", 2, "off"),
+    ],
+)
 def test_enumeration_parameters_set_as_integers_and_named_in_the_log(driver, name, code, label):
     """An Enumeration parameter is set with fmi2SetInteger by its item's value, read back as
     such, and the initialisation message names the items."""
@@ -462,7 +492,7 @@ def _resealed(edit):
 
 def _set_u32(offset, value):
     def edit(b, guid_length):
-        b[offset:offset + 4] = struct.pack("<I", value)
+        b[offset : offset + 4] = struct.pack("<I", value)
         return bytes(b)
 
     return edit
@@ -479,7 +509,7 @@ def _set_byte(offset_after_guid, value):
 def _set_real(index, value):
     def edit(b, guid_length):
         at = STATE_PAYLOAD + 4 + guid_length + STATE_FLAGS + 8 * index
-        b[at:at + 8] = struct.pack("<d", value)
+        b[at : at + 8] = struct.pack("<d", value)
         return bytes(b)
 
     return edit
@@ -526,7 +556,9 @@ def test_corrupt_serialized_state_is_refused_and_changes_nothing(driver, model_d
     existing = probe.fmu.getFMUstate()
     good = probe.fmu.serializeFMUstate(existing)
     guid_length = len(model_description.guid)
-    assert len(good) == STATE_PAYLOAD + 4 + guid_length + STATE_FLAGS + STATE_AFTER_PARAMETERS + 4, "layout assumed here is outdated"
+    assert len(good) == STATE_PAYLOAD + 4 + guid_length + STATE_FLAGS + STATE_AFTER_PARAMETERS + 4, (
+        "layout assumed here is outdated"
+    )
     bad = corrupt(good, guid_length)
     assert bad != good
 
@@ -553,7 +585,7 @@ def test_every_single_byte_flip_and_truncation_is_refused(driver):
         d.initialize(setpoint=INITIAL_SETPOINT)
         run(d, PREFIX)
     good = snapshot(probe)
-    variants = [good[:i] + bytes([good[i] ^ 0x01]) + good[i + 1:] for i in range(len(good))]
+    variants = [good[:i] + bytes([good[i] ^ 0x01]) + good[i + 1 :] for i in range(len(good))]
     variants += [good[:n] for n in range(len(good))]
     for i, bad in enumerate(variants):
         target = fmi2FMUstate()
@@ -613,7 +645,9 @@ def test_reset_returns_to_the_state_after_instantiate(driver, model_description)
     assert status_of(lambda: d.fmu.getReal([VR_CURRENT])) == FMI_ERROR, "not back in the instantiated state"
     d.fmu.setupExperiment(startTime=0.0)
     d.fmu.enterInitializationMode()
-    start = {v.name: float(v.start) for v in model_description.modelVariables if v.start is not None and v.type == "Real"}
+    start = {
+        v.name: float(v.start) for v in model_description.modelVariables if v.start is not None and v.type == "Real"
+    }
     assert d.get(*PARAMETER_NAMES) == [start[n] for n in PARAMETER_NAMES]
     assert d.get("setpoint") == start["setpoint"]
     d.set(setpoint=INITIAL_SETPOINT)
@@ -680,14 +714,21 @@ def test_thousand_life_cycles_do_not_leak_or_drift(unzipdir, model_description):
             fmu.fmi2FreeInstance(fmu.component)
         fmu.freeLibrary()
     growth = rss[CYCLES] - rss[RSS_BASELINE_CYCLE]
-    assert growth < MAX_RSS_GROWTH, f"resident memory grew by {growth / 2**20:.1f} MiB over {CYCLES - RSS_BASELINE_CYCLE} cycles"
+    assert growth < MAX_RSS_GROWTH, (
+        f"resident memory grew by {growth / 2**20:.1f} MiB over {CYCLES - RSS_BASELINE_CYCLE} cycles"
+    )
     errors = [m for s, c, m in messages if s == "ERROR"]
     assert len(errors) == CYCLES and all("communicationStepSize" in m for m in errors), errors[:3]
 
 
 # ---------------------------------------------------------------- 6. refused calls
 
-INSTANTIATED, INITIALIZATION, STEP_COMPLETE, TERMINATED = "instantiated", "initializationMode", "stepComplete", "terminated"
+INSTANTIATED, INITIALIZATION, STEP_COMPLETE, TERMINATED = (
+    "instantiated",
+    "initializationMode",
+    "stepComplete",
+    "terminated",
+)
 
 
 def bring_to(d, stage):
@@ -803,24 +844,41 @@ def foreign_component(function, *args):
 S = STEP_COMPLETE  # short alias for the table below
 BAD_CALLS = [
     # Non-finite input and parameter values.
-    *[BadCall(f"setpoint-{v}", S, set_real([VR_SETPOINT], [v]), words=("fmi2SetReal", "setpoint", "finite"))
-      for v in (math.nan, math.inf, -math.inf)],
-    BadCall("nan-parameter-init", INITIALIZATION, set_real([VR_GAIN], [math.nan]), words=("fmi2SetReal", "gain", "finite")),
+    *[
+        BadCall(f"setpoint-{v}", S, set_real([VR_SETPOINT], [v]), words=("fmi2SetReal", "setpoint", "finite"))
+        for v in (math.nan, math.inf, -math.inf)
+    ],
+    BadCall(
+        "nan-parameter-init", INITIALIZATION, set_real([VR_GAIN], [math.nan]), words=("fmi2SetReal", "gain", "finite")
+    ),
     BadCall("nan-parameter-instantiated", INSTANTIATED, set_real([103], [math.nan]), words=("tauPole2", "finite")),
-    BadCall("nan-setpoint-instantiated", INSTANTIATED, set_real([VR_SETPOINT], [math.nan]), words=("setpoint", "finite")),
+    BadCall(
+        "nan-setpoint-instantiated", INSTANTIATED, set_real([VR_SETPOINT], [math.nan]), words=("setpoint", "finite")
+    ),
     # Unknown value references, outputs, atomicity of fmi2SetReal.
-    *[BadCall(f"get-unknown-vr-{vr}", S, get_real(vr), words=("fmi2GetReal", f"value reference {vr}")) for vr in UNKNOWN_VRS],
-    *[BadCall(f"set-unknown-vr-{vr}", S, set_real([vr], [1.0]), words=("fmi2SetReal", f"value reference {vr}"))
-      for vr in UNKNOWN_VRS],
+    *[
+        BadCall(f"get-unknown-vr-{vr}", S, get_real(vr), words=("fmi2GetReal", f"value reference {vr}"))
+        for vr in UNKNOWN_VRS
+    ],
+    *[
+        BadCall(f"set-unknown-vr-{vr}", S, set_real([vr], [1.0]), words=("fmi2SetReal", f"value reference {vr}"))
+        for vr in UNKNOWN_VRS
+    ],
     BadCall("get-known-then-unknown", S, get_real(VR_CURRENT, 19), words=("value reference 19",)),
     BadCall("set-setpoint-then-unknown", S, set_real([VR_SETPOINT, 19], [90.0, 1.0]), words=("value reference 19",)),
-    BadCall("set-setpoint-then-output", S, set_real([VR_SETPOINT, VR_CURRENT], [90.0, 1.0]), words=("current", "output")),
+    BadCall(
+        "set-setpoint-then-output", S, set_real([VR_SETPOINT, VR_CURRENT], [90.0, 1.0]), words=("current", "output")
+    ),
     *[BadCall(f"set-output-{vr}", S, set_real([vr], [1.0]), words=("fmi2SetReal", "output")) for vr in OUTPUT_VRS],
     BadCall("set-output-init", INITIALIZATION, set_real([VR_CURRENT], [1.0]), words=("current", "output")),
     # Step size and communication point.
-    *[BadCall(f"step-size-{h}", S, do_step(h), words=("fmi2DoStep", "communicationStepSize"))
-      for h in (-1.0, 0.0, -0.0, math.nan, math.inf, -math.inf)],
-    BadCall("communication-point-plus-1s", S, do_step(1.0, offset=1.0), words=("fmi2DoStep", "currentCommunicationPoint")),
+    *[
+        BadCall(f"step-size-{h}", S, do_step(h), words=("fmi2DoStep", "communicationStepSize"))
+        for h in (-1.0, 0.0, -0.0, math.nan, math.inf, -math.inf)
+    ],
+    BadCall(
+        "communication-point-plus-1s", S, do_step(1.0, offset=1.0), words=("fmi2DoStep", "currentCommunicationPoint")
+    ),
     BadCall("communication-point-minus-1s", S, do_step(1.0, offset=-1.0), words=("currentCommunicationPoint",)),
     BadCall("communication-point-plus-1e-3t", S, do_step(1.0, relative=1e-3), words=("currentCommunicationPoint",)),
     BadCall("communication-point-minus-1e-3t", S, do_step(1.0, relative=-1e-3), words=("currentCommunicationPoint",)),
@@ -830,31 +888,59 @@ BAD_CALLS = [
     BadCall("get-boolean", S, plain("fmi2GetBoolean", uints(0), 1, ints(0)), words=("fmi2GetBoolean", "Boolean")),
     BadCall("set-boolean", S, plain("fmi2SetBoolean", uints(0), 1, ints(1)), words=("fmi2SetBoolean", "Boolean")),
     BadCall("get-string", S, plain("fmi2GetString", uints(0), 1, (c_char_p * 1)()), words=("fmi2GetString", "String")),
-    BadCall("set-string", S, plain("fmi2SetString", uints(0), 1, (c_char_p * 1)(b"x")), words=("fmi2SetString", "String")),
+    BadCall(
+        "set-string", S, plain("fmi2SetString", uints(0), 1, (c_char_p * 1)(b"x")), words=("fmi2SetString", "String")
+    ),
     # Calls in the wrong state (section 4.2.4, state machine of a co-simulation slave).
     BadCall("do-step-instantiated", INSTANTIATED, do_step(1.0), words=("fmi2DoStep", "instantiated")),
     BadCall("get-real-instantiated", INSTANTIATED, get_real(VR_CURRENT), words=("fmi2GetReal", "instantiated")),
-    BadCall("exit-init-instantiated", INSTANTIATED, plain("fmi2ExitInitializationMode"),
-            words=("fmi2ExitInitializationMode", "instantiated")),
+    BadCall(
+        "exit-init-instantiated",
+        INSTANTIATED,
+        plain("fmi2ExitInitializationMode"),
+        words=("fmi2ExitInitializationMode", "instantiated"),
+    ),
     BadCall("terminate-instantiated", INSTANTIATED, plain("fmi2Terminate"), words=("fmi2Terminate", "instantiated")),
     BadCall("do-step-init", INITIALIZATION, do_step(1.0), words=("fmi2DoStep", "initializationMode")),
-    BadCall("enter-init-twice", INITIALIZATION, plain("fmi2EnterInitializationMode"),
-            words=("fmi2EnterInitializationMode", "initializationMode")),
-    BadCall("setup-experiment-init", INITIALIZATION, plain("fmi2SetupExperiment", 0, 0.0, 0.0, 0, 0.0),
-            words=("fmi2SetupExperiment", "initializationMode")),
+    BadCall(
+        "enter-init-twice",
+        INITIALIZATION,
+        plain("fmi2EnterInitializationMode"),
+        words=("fmi2EnterInitializationMode", "initializationMode"),
+    ),
+    BadCall(
+        "setup-experiment-init",
+        INITIALIZATION,
+        plain("fmi2SetupExperiment", 0, 0.0, 0.0, 0, 0.0),
+        words=("fmi2SetupExperiment", "initializationMode"),
+    ),
     BadCall("set-parameter-after-init", S, set_real([VR_GAIN], [0.6]), words=("fmi2SetReal", "gain")),
-    *[BadCall(f"set-{name}-after-init", S, set_real([vr], [PAPER[name]]), words=(name,))
-      for name, vr in zip(PARAMETER_NAMES, PARAMETER_VRS)],
-    BadCall("exit-init-twice", S, plain("fmi2ExitInitializationMode"), words=("fmi2ExitInitializationMode", "stepComplete")),
-    BadCall("enter-init-after-init", S, plain("fmi2EnterInitializationMode"),
-            words=("fmi2EnterInitializationMode", "stepComplete")),
-    BadCall("setup-experiment-after-init", S, plain("fmi2SetupExperiment", 0, 0.0, 0.0, 0, 0.0),
-            words=("fmi2SetupExperiment", "stepComplete")),
+    *[
+        BadCall(f"set-{name}-after-init", S, set_real([vr], [PAPER[name]]), words=(name,))
+        for name, vr in zip(PARAMETER_NAMES, PARAMETER_VRS)
+    ],
+    BadCall(
+        "exit-init-twice", S, plain("fmi2ExitInitializationMode"), words=("fmi2ExitInitializationMode", "stepComplete")
+    ),
+    BadCall(
+        "enter-init-after-init",
+        S,
+        plain("fmi2EnterInitializationMode"),
+        words=("fmi2EnterInitializationMode", "stepComplete"),
+    ),
+    BadCall(
+        "setup-experiment-after-init",
+        S,
+        plain("fmi2SetupExperiment", 0, 0.0, 0.0, 0, 0.0),
+        words=("fmi2SetupExperiment", "stepComplete"),
+    ),
     BadCall("do-step-terminated", TERMINATED, do_step(1.0), words=("fmi2DoStep", "terminated")),
     BadCall("set-real-terminated", TERMINATED, set_real([VR_SETPOINT], [90.0]), words=("fmi2SetReal", "terminated")),
     BadCall("terminate-twice", TERMINATED, plain("fmi2Terminate"), words=("fmi2Terminate", "terminated")),
     # Invalid parameter sets, refused at fmi2ExitInitializationMode naming the parameter.
-    BadCall("tauPole1-negative", INITIALIZATION, exit_with(tauPole1=-1.0), words=("fmi2ExitInitializationMode", "tauPole1")),
+    BadCall(
+        "tauPole1-negative", INITIALIZATION, exit_with(tauPole1=-1.0), words=("fmi2ExitInitializationMode", "tauPole1")
+    ),
     BadCall("min-above-max", INITIALIZATION, exit_with(minSetpoint=90.0, maxSetpoint=80.0), words=("minSetpoint",)),
     BadCall("equal-poles", INITIALIZATION, exit_with(tauPole1=50.0, tauPole2=50.0), words=("tauPole",)),
     BadCall("gain-zero", INITIALIZATION, exit_with(gain=0.0), words=("gain",)),
@@ -863,28 +949,72 @@ BAD_CALLS = [
     BadCall("ohmicResistance-negative", INITIALIZATION, exit_with(ohmicResistance=-0.1), words=("ohmicResistance",)),
     # Null and foreign pointers.
     BadCall("get-real-null-vr", S, plain("fmi2GetReal", None, 1, reals(0.0)), words=("fmi2GetReal", "vr", "null")),
-    BadCall("get-real-null-value", S, plain("fmi2GetReal", uints(VR_CURRENT), 1, None), words=("fmi2GetReal", "value", "null")),
+    BadCall(
+        "get-real-null-value",
+        S,
+        plain("fmi2GetReal", uints(VR_CURRENT), 1, None),
+        words=("fmi2GetReal", "value", "null"),
+    ),
     BadCall("set-real-null-vr", S, plain("fmi2SetReal", None, 1, reals(90.0)), words=("fmi2SetReal", "vr", "null")),
-    BadCall("set-real-null-value", S, plain("fmi2SetReal", uints(VR_SETPOINT), 1, None), words=("fmi2SetReal", "value", "null")),
-    BadCall("debug-logging-unknown-category", S, plain("fmi2SetDebugLogging", 1, 1, (c_char_p * 1)(b"logNonsense")),
-            words=("fmi2SetDebugLogging", "logNonsense")),
-    BadCall("debug-logging-null-category", S, plain("fmi2SetDebugLogging", 1, 1, (c_char_p * 1)(None)),
-            words=("fmi2SetDebugLogging", "null")),
-    BadCall("debug-logging-null-categories", S, plain("fmi2SetDebugLogging", 1, 2, None),
-            words=("fmi2SetDebugLogging", "null")),
+    BadCall(
+        "set-real-null-value",
+        S,
+        plain("fmi2SetReal", uints(VR_SETPOINT), 1, None),
+        words=("fmi2SetReal", "value", "null"),
+    ),
+    BadCall(
+        "debug-logging-unknown-category",
+        S,
+        plain("fmi2SetDebugLogging", 1, 1, (c_char_p * 1)(b"logNonsense")),
+        words=("fmi2SetDebugLogging", "logNonsense"),
+    ),
+    BadCall(
+        "debug-logging-null-category",
+        S,
+        plain("fmi2SetDebugLogging", 1, 1, (c_char_p * 1)(None)),
+        words=("fmi2SetDebugLogging", "null"),
+    ),
+    BadCall(
+        "debug-logging-null-categories",
+        S,
+        plain("fmi2SetDebugLogging", 1, 2, None),
+        words=("fmi2SetDebugLogging", "null"),
+    ),
     BadCall("free-fmu-state-null", S, plain("fmi2FreeFMUstate", None), words=("fmi2FreeFMUstate", "null")),
     BadCall("get-fmu-state-null", S, plain("fmi2GetFMUstate", None), words=("fmi2GetFMUstate", "null")),
     BadCall("set-fmu-state-null", S, plain("fmi2SetFMUstate", None), words=("fmi2SetFMUstate", "null")),
     BadCall("set-fmu-state-foreign", S, set_foreign_state, words=("fmi2SetFMUstate", "not made by this FMU")),
-    BadCall("state-size-null", S, with_state(lambda d, s: call(d, "fmi2SerializedFMUstateSize", s, None)),
-            words=("fmi2SerializedFMUstateSize", "null")),
+    BadCall(
+        "state-size-null",
+        S,
+        with_state(lambda d, s: call(d, "fmi2SerializedFMUstateSize", s, None)),
+        words=("fmi2SerializedFMUstateSize", "null"),
+    ),
     BadCall("serialize-too-small", S, with_state(serialize_too_small), words=("fmi2SerializeFMUstate", "too small")),
-    BadCall("serialize-null-buffer", S, with_state(lambda d, s: call(d, "fmi2SerializeFMUstate", s, None, 1024)),
-            words=("fmi2SerializeFMUstate", "null")),
-    BadCall("deserialize-null-bytes", S, plain("fmi2DeSerializeFMUstate", None, 217, byref(fmi2FMUstate())),
-            words=("fmi2DeSerializeFMUstate", "null")),
-    BadCall("real-status-null", S, plain("fmi2GetRealStatus", fmi2LastSuccessfulTime, None), words=("fmi2GetRealStatus", "null")),
-    BadCall("boolean-status-null", S, plain("fmi2GetBooleanStatus", fmi2Terminated, None), words=("fmi2GetBooleanStatus", "null")),
+    BadCall(
+        "serialize-null-buffer",
+        S,
+        with_state(lambda d, s: call(d, "fmi2SerializeFMUstate", s, None, 1024)),
+        words=("fmi2SerializeFMUstate", "null"),
+    ),
+    BadCall(
+        "deserialize-null-bytes",
+        S,
+        plain("fmi2DeSerializeFMUstate", None, 217, byref(fmi2FMUstate())),
+        words=("fmi2DeSerializeFMUstate", "null"),
+    ),
+    BadCall(
+        "real-status-null",
+        S,
+        plain("fmi2GetRealStatus", fmi2LastSuccessfulTime, None),
+        words=("fmi2GetRealStatus", "null"),
+    ),
+    BadCall(
+        "boolean-status-null",
+        S,
+        plain("fmi2GetBooleanStatus", fmi2Terminated, None),
+        words=("fmi2GetBooleanStatus", "null"),
+    ),
     BadCall("do-step-null-component", S, null_component("fmi2DoStep", 0.0, 1.0, 1), words=None),
     BadCall("get-real-null-component", S, null_component("fmi2GetReal", uints(1), 1, reals(0.0)), words=None),
     BadCall("set-real-null-component", S, null_component("fmi2SetReal", uints(0), 1, reals(90.0)), words=None),
@@ -892,29 +1022,71 @@ BAD_CALLS = [
     BadCall("do-step-foreign-component", S, foreign_component("fmi2DoStep", 0.0, 1.0, 1), words=None),
     # Unsupported functions (model description: no derivatives, no asynchronous steps).
     # Input derivatives (canInterpolateInputs): only the first derivative of the input.
-    BadCall("input-derivative-order-0", S, plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(0), reals(0.1)),
-            words=("fmi2SetRealInputDerivatives", "order 0")),
-    BadCall("input-derivative-of-output", S, plain("fmi2SetRealInputDerivatives", uints(1), 1, ints(1), reals(0.1)),
-            words=("fmi2SetRealInputDerivatives", "current", "not an input")),
-    BadCall("input-derivative-nan", S, plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(1), reals(float("nan"))),
-            words=("fmi2SetRealInputDerivatives", "finite")),
-    BadCall("input-derivative-terminated", TERMINATED, plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(1), reals(0.1)),
-            words=("fmi2SetRealInputDerivatives", "terminated")),
-    BadCall("get-real-output-derivatives", S, plain("fmi2GetRealOutputDerivatives", uints(1), 1, ints(1), reals(0.0)),
-            words=("fmi2GetRealOutputDerivatives", "not supported")),
-    BadCall("get-directional-derivative", S,
-            plain("fmi2GetDirectionalDerivative", uints(1), 1, uints(0), 1, reals(1.0), reals(0.0)),
-            words=("fmi2GetDirectionalDerivative", "not supported")),
+    BadCall(
+        "input-derivative-order-0",
+        S,
+        plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(0), reals(0.1)),
+        words=("fmi2SetRealInputDerivatives", "order 0"),
+    ),
+    BadCall(
+        "input-derivative-of-output",
+        S,
+        plain("fmi2SetRealInputDerivatives", uints(1), 1, ints(1), reals(0.1)),
+        words=("fmi2SetRealInputDerivatives", "current", "not an input"),
+    ),
+    BadCall(
+        "input-derivative-nan",
+        S,
+        plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(1), reals(float("nan"))),
+        words=("fmi2SetRealInputDerivatives", "finite"),
+    ),
+    BadCall(
+        "input-derivative-terminated",
+        TERMINATED,
+        plain("fmi2SetRealInputDerivatives", uints(0), 1, ints(1), reals(0.1)),
+        words=("fmi2SetRealInputDerivatives", "terminated"),
+    ),
+    BadCall(
+        "get-real-output-derivatives",
+        S,
+        plain("fmi2GetRealOutputDerivatives", uints(1), 1, ints(1), reals(0.0)),
+        words=("fmi2GetRealOutputDerivatives", "not supported"),
+    ),
+    BadCall(
+        "get-directional-derivative",
+        S,
+        plain("fmi2GetDirectionalDerivative", uints(1), 1, uints(0), 1, reals(1.0), reals(0.0)),
+        words=("fmi2GetDirectionalDerivative", "not supported"),
+    ),
     BadCall("cancel-step", S, plain("fmi2CancelStep"), words=("fmi2CancelStep",)),
     # Status kinds that are not available: fmi2Discard (section 4.2.3).
-    BadCall("status-do-step", S, plain("fmi2GetStatus", fmi2DoStepStatus, byref(c_int(0))), FMI_DISCARD, ("fmi2GetStatus",)),
-    BadCall("status-pending", S, plain("fmi2GetStatus", fmi2PendingStatus, byref(c_int(0))), FMI_DISCARD, ("fmi2GetStatus",)),
-    BadCall("real-status-do-step", S, plain("fmi2GetRealStatus", fmi2DoStepStatus, byref(c_double(0))), FMI_DISCARD,
-            ("fmi2GetRealStatus",)),
-    BadCall("integer-status", S, plain("fmi2GetIntegerStatus", fmi2DoStepStatus, byref(c_int(0))), FMI_DISCARD,
-            ("fmi2GetIntegerStatus",)),
-    BadCall("string-status", S, plain("fmi2GetStringStatus", fmi2PendingStatus, byref(c_char_p())), FMI_DISCARD,
-            ("fmi2GetStringStatus",)),
+    BadCall(
+        "status-do-step", S, plain("fmi2GetStatus", fmi2DoStepStatus, byref(c_int(0))), FMI_DISCARD, ("fmi2GetStatus",)
+    ),
+    BadCall(
+        "status-pending", S, plain("fmi2GetStatus", fmi2PendingStatus, byref(c_int(0))), FMI_DISCARD, ("fmi2GetStatus",)
+    ),
+    BadCall(
+        "real-status-do-step",
+        S,
+        plain("fmi2GetRealStatus", fmi2DoStepStatus, byref(c_double(0))),
+        FMI_DISCARD,
+        ("fmi2GetRealStatus",),
+    ),
+    BadCall(
+        "integer-status",
+        S,
+        plain("fmi2GetIntegerStatus", fmi2DoStepStatus, byref(c_int(0))),
+        FMI_DISCARD,
+        ("fmi2GetIntegerStatus",),
+    ),
+    BadCall(
+        "string-status",
+        S,
+        plain("fmi2GetStringStatus", fmi2PendingStatus, byref(c_char_p())),
+        FMI_DISCARD,
+        ("fmi2GetStringStatus",),
+    ),
 ]
 
 
@@ -1065,8 +1237,13 @@ def test_simulate_fmu_with_a_setpoint_table(fmu_path):
         dtype=[("time", np.float64), ("setpoint", np.float64)],
     )
     result = simulate_fmu(
-        str(fmu_path), start_time=0.0, stop_time=SIM_STOP, output_interval=SIM_INTERVAL,
-        input=signal, output=list(OUTPUT_NAMES), fmi_type="CoSimulation",
+        str(fmu_path),
+        start_time=0.0,
+        stop_time=SIM_STOP,
+        output_interval=SIM_INTERVAL,
+        input=signal,
+        output=list(OUTPUT_NAMES),
+        fmi_type="CoSimulation",
     )
     t, current, voltage = result["time"], result["current"], result["voltage"]
     k = PAPER["gain"]

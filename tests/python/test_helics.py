@@ -21,6 +21,7 @@ separate processes over zmq on 127.0.0.1, each test with its own ports and broke
 Expected values come from the FMU alone, the wind series recomputed, the FMU's model description
 read with ElementTree, pandapower run here and HELICS's exchange rules; none from the federates.
 """
+
 import json
 import os
 import random
@@ -95,8 +96,12 @@ def commands(out, port, key, fmu, duration=DURATION, common=(), broker=(), **ext
     cmds = {}
     for f in runner["federates"]:
         args = shlex.split(f["exec"])
-        args = [a.replace("23404", str(port)).replace("--duration=3600", f"--duration={duration}")
-                .replace(f"--maxcosimduration={LIMIT}", "--maxcosimduration=300s") for a in args]
+        args = [
+            a.replace("23404", str(port))
+            .replace("--duration=3600", f"--duration={duration}")
+            .replace(f"--maxcosimduration={LIMIT}", "--maxcosimduration=300s")
+            for a in args
+        ]
         args += [f"--brokerkey={key}"]
         if f["name"] == "broker":
             args += ["--wall-limit=330", *broker]
@@ -142,7 +147,8 @@ class Federation:
                 pass
         hung = [n for n in self.procs if n not in status]
         assert not hung, f"{hung} still running {timeout} s later; their stderr:\n" + "\n".join(
-            f"--- {n}:\n{self.stderr(n)[-2000:]}" for n in hung)
+            f"--- {n}:\n{self.stderr(n)[-2000:]}" for n in hung
+        )
         return status
 
     def stderr(self, name):
@@ -174,12 +180,19 @@ def federation(tmp_path, fmu_path):
 
 # --- the command: `python -m aem_electrolyser.helics.run` ----------------------------------------
 
+
 def run_command(args, cwd, timeout=300):
     """Runs the command (its own process group, killed if it outlives timeout [s]); (status,
     stdout, stderr, wall [s])."""
     start = time.monotonic()
-    p = subprocess.Popen([sys.executable, "-m", "aem_electrolyser.helics.run", *map(str, args)], cwd=cwd,
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    p = subprocess.Popen(
+        [sys.executable, "-m", "aem_electrolyser.helics.run", *map(str, args)],
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     try:
         stdout, stderr = p.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:
@@ -200,13 +213,27 @@ def ten_minutes(fmu_path, tmp_path_factory):
     tmp = tmp_path_factory.mktemp("helics")
     out = tmp / "out"
     status, stdout, stderr, wall = run_command(
-        ["--duration", DURATION, "--out", out, "--port", free_ports(), "--fmu", fmu_path, "--wall-limit", 300,
-         "--quiet"], cwd=tmp)
-    logs = {name: (out / f"{name}.log").read_text() for name in ("broker", *FEDERATES) if (out / f"{name}.log").exists()}
+        [
+            "--duration",
+            DURATION,
+            "--out",
+            out,
+            "--port",
+            free_ports(),
+            "--fmu",
+            fmu_path,
+            "--wall-limit",
+            300,
+            "--quiet",
+        ],
+        cwd=tmp,
+    )
+    logs = {
+        name: (out / f"{name}.log").read_text() for name in ("broker", *FEDERATES) if (out / f"{name}.log").exists()
+    }
     assert status == 0, stdout + stderr + "\n".join(logs.values())
     assert stdout == "" and stderr == ""  # --quiet
-    records = {f"{n}_{kind}": table(out / f"{n}_{kind}.csv")
-               for n in FEDERATES for kind in ("published", "received")}
+    records = {f"{n}_{kind}": table(out / f"{n}_{kind}.csv") for n in FEDERATES for kind in ("published", "received")}
     return records, logs, wall
 
 
@@ -294,9 +321,14 @@ def test_the_grid_gives_what_fresh_load_flows_give(ten_minutes):
 # --- the command's folder, summary and figure; its refusals ------------------------------------
 
 #: What a run leaves in its folder, and nothing else.
-RESULT_FILES = {"federation.json", "runner.log", "summary.json", "helics.png",
-                *(f"{n}.log" for n in ("broker", *FEDERATES)),
-                *(f"{n}_{kind}.csv" for n in FEDERATES for kind in ("published", "received"))}
+RESULT_FILES = {
+    "federation.json",
+    "runner.log",
+    "summary.json",
+    "helics.png",
+    *(f"{n}.log" for n in ("broker", *FEDERATES)),
+    *(f"{n}_{kind}.csv" for n in FEDERATES for kind in ("published", "received")),
+}
 #: Faraday's law at the reversible cell voltage: no electrolyser makes a kg of hydrogen with less
 #: than 2 F E_rev / M(H2) of electric energy [kWh/kg] (32.7 kWh/kg).
 FARADAY_FLOOR = 2 * 96485.33212 * 1.229 / 2.01588e-3 / 3.6e6
@@ -311,8 +343,26 @@ def test_the_command_writes_everything_into_its_folder(tmp_path, fmu_path):
     cwd.mkdir()
     duration, modules, seed = 60, 20_000, 3
     status, stdout, stderr, wall = run_command(
-        ["--duration", duration, "--out", out, "--modules", modules, "--dispatch", "sequential", "--seed", seed,
-         "--port", port, "--fmu", fmu_path, "--wall-limit", 300], cwd=cwd)
+        [
+            "--duration",
+            duration,
+            "--out",
+            out,
+            "--modules",
+            modules,
+            "--dispatch",
+            "sequential",
+            "--seed",
+            seed,
+            "--port",
+            port,
+            "--fmu",
+            fmu_path,
+            "--wall-limit",
+            300,
+        ],
+        cwd=cwd,
+    )
     assert status == 0, stdout + stderr
     assert stderr == ""  # no bar: stdout is not a terminal
     assert package_listing() == before
@@ -342,8 +392,12 @@ def test_the_command_writes_everything_into_its_folder(tmp_path, fmu_path):
     h2, flow = hub["hub/hubH2Produced [kg]"], hub["hub/hubH2MassFlow [kg/h]"]
     wind = farm_power(duration + 1.0, 1.0, seed=seed)[1]  # the series recomputed here
     s = json.loads((out / "summary.json").read_text())
-    assert (s["simulated duration [s]"], s["modules"], s["dispatch"], s["seed"]) == (duration, modules, "sequential",
-                                                                                     seed)
+    assert (s["simulated duration [s]"], s["modules"], s["dispatch"], s["seed"]) == (
+        duration,
+        modules,
+        "sequential",
+        seed,
+    )
     assert 0 < s["wall time [s]"] < wall
     # the FMU's own integrals at the end, and the wind the hub was given (w(t) held over [t, t + 1 s])
     assert s["hub energy [MWh]"] == pytest.approx((energy[-1] - energy[0]) / 3.6e9, rel=1e-12)
@@ -357,7 +411,8 @@ def test_the_command_writes_everything_into_its_folder(tmp_path, fmu_path):
     assert FARADAY_FLOOR < s["specific energy [kWh/kg]"] < 2.5 * FARADAY_FLOOR
     # at the bus, what the hub does not take of the wind goes into the grid, and the reverse
     assert s["surplus into the grid [MWh]"] - s["drawn from the grid [MWh]"] == pytest.approx(
-        s["wind energy [MWh]"] - s["hub energy [MWh]"], abs=1e-9)
+        s["wind energy [MWh]"] - s["hub energy [MWh]"], abs=1e-9
+    )
     assert min(s["surplus into the grid [MWh]"], s["drawn from the grid [MWh]"]) >= 0
     assert s["hub power range [MW]"] == pytest.approx([power.min() / 1e6, power.max() / 1e6])
     slack, voltage = r["grid_published"]["grid/slackPower [W]"], r["grid_published"]["grid/voltage [pu]"]
@@ -366,8 +421,12 @@ def test_the_command_writes_everything_into_its_folder(tmp_path, fmu_path):
 
     # the report on stdout says the same, with units
     assert stdout.startswith(f"HELICS federation: {duration} s simulated, broker at 127.0.0.1:{port}")
-    for figure in (f"{s['wind energy [MWh]']:.3f} MWh", f"{s['hub energy [MWh]']:.3f} MWh",
-                   f"{s['hydrogen [kg]']:.2f} kg", f"{s['specific energy [kWh/kg]']:.1f} kWh/kg"):
+    for figure in (
+        f"{s['wind energy [MWh]']:.3f} MWh",
+        f"{s['hub energy [MWh]']:.3f} MWh",
+        f"{s['hydrogen [kg]']:.2f} kg",
+        f"{s['specific energy [kWh/kg]']:.1f} kWh/kg",
+    ):
         assert figure in stdout, (figure, stdout)
     png = (out / "helics.png").read_bytes()
     assert png.startswith(b"\x89PNG\r\n\x1a\n")
@@ -378,30 +437,59 @@ def test_the_command_writes_everything_into_its_folder(tmp_path, fmu_path):
 def test_a_failed_federation_is_one_line_naming_the_federate(tmp_path, fmu_path):
     out = tmp_path / "run"
     status, stdout, stderr, _ = run_command(
-        ["--duration", 60, "--fail-at", 5, "--stall-timeout", STALL, "--out", out, "--port", free_ports(),
-         "--fmu", fmu_path, "--wall-limit", 300, "--quiet"], cwd=tmp_path)
+        [
+            "--duration",
+            60,
+            "--fail-at",
+            5,
+            "--stall-timeout",
+            STALL,
+            "--out",
+            out,
+            "--port",
+            free_ports(),
+            "--fmu",
+            fmu_path,
+            "--wall-limit",
+            300,
+            "--quiet",
+        ],
+        cwd=tmp_path,
+    )
     assert status == 1
     assert stderr.splitlines() == [
         "python -m aem_electrolyser.helics.run: error: the federation failed: grid exited with status 1: failed "
-        f"at t=5 s: RuntimeError: simulated failure at t=5 s (--fail-at) (logs in {out.resolve()})"], stderr
+        f"at t=5 s: RuntimeError: simulated failure at t=5 s (--fail-at) (logs in {out.resolve()})"
+    ], stderr
     assert stdout == ""
     assert not (out / "summary.json").exists() and not (out / "helics.png").exists()
 
 
-@pytest.mark.parametrize("program, args, expected", [
-    ("run", ["--duration", "0"], "argument --duration: must be a positive integer, not 0"),
-    ("run", ["--dispatch", "eqaul"], "argument --dispatch: 'eqaul' is not one of equal, sequential "
-                                     "(did you mean 'equal'?)"),
-    ("run", ["--port", "80"], "argument --port: must be within 1024 to"),
-    ("run", ["--duraton", "60"], "unknown option --duraton (did you mean '--duration'?)"),
-    ("hub_federate", ["--dispatch", "eqaul"], "argument --dispatch: 'eqaul' is not one of equal, sequential"),
-    ("wind_federate", ["--duration", "0"], "argument --duration: must be a positive integer, not 0"),
-    ("wind_federate", ["--brokrport=23404"], "unknown option --brokrport (did you mean '--brokerport'?)"),
-    ("grid_federate", ["--bus", "Bus 77"], "argument --bus: 'Bus 77' is not a bus of the CIGRE HV grid"),
-])
+@pytest.mark.parametrize(
+    "program, args, expected",
+    [
+        ("run", ["--duration", "0"], "argument --duration: must be a positive integer, not 0"),
+        (
+            "run",
+            ["--dispatch", "eqaul"],
+            "argument --dispatch: 'eqaul' is not one of equal, sequential (did you mean 'equal'?)",
+        ),
+        ("run", ["--port", "80"], "argument --port: must be within 1024 to"),
+        ("run", ["--duraton", "60"], "unknown option --duraton (did you mean '--duration'?)"),
+        ("hub_federate", ["--dispatch", "eqaul"], "argument --dispatch: 'eqaul' is not one of equal, sequential"),
+        ("wind_federate", ["--duration", "0"], "argument --duration: must be a positive integer, not 0"),
+        ("wind_federate", ["--brokrport=23404"], "unknown option --brokrport (did you mean '--brokerport'?)"),
+        ("grid_federate", ["--bus", "Bus 77"], "argument --bus: 'Bus 77' is not a bus of the CIGRE HV grid"),
+    ],
+)
 def test_a_bad_argument_is_one_line_naming_it(program, args, expected, tmp_path):
-    done = subprocess.run([sys.executable, "-m", f"aem_electrolyser.helics.{program}", *args, "--out",
-                           str(tmp_path / "out")], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [sys.executable, "-m", f"aem_electrolyser.helics.{program}", *args, "--out", str(tmp_path / "out")],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 2, done.stderr
     assert len(done.stderr.splitlines()) == 1, done.stderr
     assert done.stderr.startswith(f"python -m aem_electrolyser.helics.{program}: error: {expected}"), done.stderr
@@ -410,6 +498,7 @@ def test_a_bad_argument_is_one_line_naming_it(program, args, expected, tmp_path)
 
 
 # --- failures ----------------------------------------------------------------------------------
+
 
 def test_a_federate_that_raises_ends_the_federation(federation):
     f = federation(common=[f"--stall-timeout={STALL}"], grid=["--fail-at=30"])
@@ -506,9 +595,14 @@ def test_the_wall_clock_limit_ends_the_federation(federation):
 def test_an_unwritable_output_folder_ends_a_federate_at_once(name, tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("")
-    done = subprocess.run([sys.executable, "-m", f"aem_electrolyser.helics.{name}_federate", f"--out={blocker / 'out'}"],
-                          capture_output=True, text=True, timeout=60)
+    done = subprocess.run(
+        [sys.executable, "-m", f"aem_electrolyser.helics.{name}_federate", f"--out={blocker / 'out'}"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert done.returncode == 1
     assert done.stderr.strip().splitlines() == [
-        f"python -m aem_electrolyser.helics.{name}_federate: error: cannot write {blocker / 'out'}: Not a directory"]
+        f"python -m aem_electrolyser.helics.{name}_federate: error: cannot write {blocker / 'out'}: Not a directory"
+    ]
     assert done.stdout == ""

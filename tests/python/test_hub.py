@@ -1,5 +1,6 @@
 """The hub through fmpy: operating states, dispatch and power reference of the packaged FMU,
 against closed-form expectations (steady states, transition times, N x one module)."""
+
 import math
 
 import numpy as np
@@ -39,7 +40,13 @@ def run(d, seconds, h, **inputs):
 
 def test_defaults_are_the_single_module(driver):
     d = hub(driver, setpoint=80.0)
-    assert integers(d, "nModules", "dispatch", "belowMinimum", "operatingState", "modulesRunning") == [1, 1, 0, RUNNING, 1]
+    assert integers(d, "nModules", "dispatch", "belowMinimum", "operatingState", "modulesRunning") == [
+        1,
+        1,
+        0,
+        RUNNING,
+        1,
+    ]
     assert d.fmu.getBoolean([d.vr["powerInput"]]) == [False]
     assert d.get("hubPower") == d.get("power")
     assert d.get("hubPower") == pytest.approx(module_power(80.0), rel=1e-12)
@@ -64,7 +71,12 @@ def test_an_equal_hub_of_n_is_exactly_n_times_one_module(driver):
 @pytest.mark.parametrize("dispatch,below", [(1, 1), (2, 1), (2, 2), (3, 1)])
 def test_a_hub_told_a_constant_power_draws_it_in_steady_state(driver, dispatch, below):
     n, target = 25_000, 45e6
-    d = hub(driver, power=30e6, integers=dict(nModules=n, dispatch=dispatch, belowMinimum=below), booleans=dict(powerInput=True))
+    d = hub(
+        driver,
+        power=30e6,
+        integers=dict(nModules=n, dispatch=dispatch, belowMinimum=below),
+        booleans=dict(powerInput=True),
+    )
     run(d, 3000, 10.0, powerReference=target)
     # The whole hub draws the reference: modules kept warm draw standbyPower, the running ones
     # the rest.
@@ -91,7 +103,9 @@ def test_modules_kept_warm_draw_from_the_reference(driver):
 def test_sequential_dispatch_reaches_loads_an_equal_hub_cannot(driver):
     n = 1000
     seq = hub(driver, setpoint=20.0, integers=dict(nModules=n, dispatch=2, belowMinimum=2))
-    equal = hub(driver, setpoint=20.0, integers=dict(nModules=n, dispatch=1, belowMinimum=0, spreadSeed=2), parameterSpread=0.0)
+    equal = hub(
+        driver, setpoint=20.0, integers=dict(nModules=n, dispatch=1, belowMinimum=0, spreadSeed=2), parameterSpread=0.0
+    )
     # Sequential: 20 % of the hub is 200 modules at 100 %; equal with modules that never stop
     # keeps all 1000 at their 60 % minimum.
     assert integers(seq, "modulesRunning", "modulesIdle") == [200, 800]
@@ -144,7 +158,12 @@ def power_schedule(t):
 def test_results_at_common_points_do_not_depend_on_the_step_size(driver, dispatch):
     runs = {}
     for h in (0.5, 7.5, 60.0):
-        d = hub(driver, power=power_schedule(0), integers=dict(nModules=12, dispatch=dispatch, belowMinimum=1), booleans=dict(powerInput=True))
+        d = hub(
+            driver,
+            power=power_schedule(0),
+            integers=dict(nModules=12, dispatch=dispatch, belowMinimum=1),
+            booleans=dict(powerInput=True),
+        )
         rows = []
         for k in range(round(3600 / h)):
             d.set(powerReference=power_schedule(k * h))
@@ -179,13 +198,16 @@ def test_hub_state_save_and_restore_replays_bit_identically(driver):
     d.fmu.freeFMUstate(state)
 
 
-@pytest.mark.parametrize("integers_,reals,words", [
-    (dict(nModules=0), {}, "nModules"),
-    (dict(nModules=5, dispatch=2), {}, "belowMinimum"),
-    (dict(nModules=5, dispatch=4), {}, "dispatch"),
-    (dict(nModules=5, belowMinimum=1), dict(standbyDuration=-1.0), "standbyDuration"),
-    (dict(nModules=5), dict(parameterSpread=0.7), "parameterSpread"),
-])
+@pytest.mark.parametrize(
+    "integers_,reals,words",
+    [
+        (dict(nModules=0), {}, "nModules"),
+        (dict(nModules=5, dispatch=2), {}, "belowMinimum"),
+        (dict(nModules=5, dispatch=4), {}, "dispatch"),
+        (dict(nModules=5, belowMinimum=1), dict(standbyDuration=-1.0), "standbyDuration"),
+        (dict(nModules=5), dict(parameterSpread=0.7), "parameterSpread"),
+    ],
+)
 def test_bad_hub_settings_are_refused_by_name(driver, integers_, reals, words):
     d = driver(logging_on=True)
     d.fmu.setupExperiment(startTime=0.0)
@@ -275,11 +297,20 @@ def test_a_relative_module_parameter_file_that_is_nowhere_says_where_it_was_look
     assert any("no-such-modules.json" in m and "resources folder" in m for _, _, m in d.messages), d.messages
 
 
-@pytest.mark.parametrize("content,words", [
-    (None, "moduleParameterFile"),  # missing file
-    ('{"generator": "x", "modules": [{"module": "A", "parameters": {"gain": {"value": 0.5, "unit": "A", "source": "identified"}}}]}', "unit"),
-    ('{"generator": "x", "modules": [{"module": "A", "parameters": {"tauPole1": {"value": -1, "unit": "s", "source": "identified"}}}]}', "tauPole1"),
-])
+@pytest.mark.parametrize(
+    "content,words",
+    [
+        (None, "moduleParameterFile"),  # missing file
+        (
+            '{"generator": "x", "modules": [{"module": "A", "parameters": {"gain": {"value": 0.5, "unit": "A", "source": "identified"}}}]}',
+            "unit",
+        ),
+        (
+            '{"generator": "x", "modules": [{"module": "A", "parameters": {"tauPole1": {"value": -1, "unit": "s", "source": "identified"}}}]}',
+            "tauPole1",
+        ),
+    ],
+)
 def test_a_bad_module_parameter_file_is_refused_by_name(driver, tmp_path, content, words):
     path = tmp_path / "params.json"
     if content is not None:

@@ -6,6 +6,7 @@ use them as defaults (a simulation without start values gives the steady current
 voltage V0 + R*I of the identified set), and the repository's modelDescription.xml must stay
 untouched. Unknown names and wrong units are refused before anything is built.
 """
+
 import json
 import subprocess
 import sys
@@ -31,14 +32,22 @@ IDENTIFIED = {
 
 
 def parameter_file(path, parameters, module="A", extra_modules=()):
-    entries = [{
-        "module": module,
-        "parameters": {
-            name: {"value": value, "unit": unit, "standardError": 0.001, "poorlyDetermined": False, "source": "identified"}
-            for name, (value, unit) in parameters.items()
-        },
-        "statistics": {"dynamics": {"rmseA": 0.151}},
-    }]
+    entries = [
+        {
+            "module": module,
+            "parameters": {
+                name: {
+                    "value": value,
+                    "unit": unit,
+                    "standardError": 0.001,
+                    "poorlyDetermined": False,
+                    "source": "identified",
+                }
+                for name, (value, unit) in parameters.items()
+            },
+            "statistics": {"dynamics": {"rmseA": 0.151}},
+        }
+    ]
     entries += [{"module": m, "parameters": {}, "statistics": {}} for m in extra_modules]
     path.write_text(json.dumps({"generator": "aem-identify 0.1.0", "modules": entries}, indent=2))
     return path
@@ -46,7 +55,12 @@ def parameter_file(path, parameters, module="A", extra_modules=()):
 
 def package(*args):
     # linux64 only: these tests are about the start values, which every platform shares.
-    return subprocess.run([sys.executable, str(PACKAGE), "--platforms", "linux64", *map(str, args)], cwd=ROOT, capture_output=True, text=True)
+    return subprocess.run(
+        [sys.executable, str(PACKAGE), "--platforms", "linux64", *map(str, args)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
 
 
 def test_identified_values_are_the_start_values_and_the_binary_defaults(tmp_path):
@@ -69,8 +83,14 @@ def test_identified_values_are_the_start_values_and_the_binary_defaults(tmp_path
     assert md.guid != read_model_description(str(ROOT / "modelDescription.xml")).guid
 
     # The binary's defaults are the identified values: no start values are set here.
-    result = simulate_fmu(str(out), stop_time=10.0, step_size=1.0, output_interval=1.0,
-                          start_values={"setpoint": 100.0}, output=["current", "voltage", "h2Flow"])
+    result = simulate_fmu(
+        str(out),
+        stop_time=10.0,
+        step_size=1.0,
+        output_interval=1.0,
+        start_values={"setpoint": 100.0},
+        output=["current", "voltage", "h2Flow"],
+    )
     gain, v0, r, c = (IDENTIFIED[n][0] for n in ("gain", "voltageIntercept", "ohmicResistance", "h2Coefficient"))
     current = gain * 100.0
     assert result["current"][-1] == pytest.approx(current, rel=1e-12)
@@ -78,12 +98,15 @@ def test_identified_values_are_the_start_values_and_the_binary_defaults(tmp_path
     assert result["h2Flow"][-1] == pytest.approx(c * current, rel=1e-12)
 
 
-@pytest.mark.parametrize("name, entry, message", [
-    ("gainz", (0.5, "A/%"), "unknown parameter 'gainz'"),
-    ("gain", (0.5, "A"), "has unit 'A', the FMU's is 'A/%'"),
-    ("tauZero", (float("nan"), "s"), "is not a finite number"),
-    ("tauPole1", (-1.0, "s"), "below its min"),
-])
+@pytest.mark.parametrize(
+    "name, entry, message",
+    [
+        ("gainz", (0.5, "A/%"), "unknown parameter 'gainz'"),
+        ("gain", (0.5, "A"), "has unit 'A', the FMU's is 'A/%'"),
+        ("tauZero", (float("nan"), "s"), "is not a finite number"),
+        ("tauPole1", (-1.0, "s"), "below its min"),
+    ],
+)
 def test_bad_parameter_files_are_refused_before_building(tmp_path, name, entry, message):
     params = parameter_file(tmp_path / "bad.json", {name: entry})
     out = tmp_path / "bad.fmu"

@@ -15,6 +15,7 @@
    cycles run natively under AddressSanitizer/LeakSanitizer. Each checker is first shown to
    catch a deliberate leak and a deliberate out-of-bounds read.
 """
+
 import csv
 import json
 import math
@@ -31,8 +32,13 @@ import pytest
 from conftest import PAPER, ROOT, Driver, modal_weights, unlimited_step_response
 
 SCHEDULE = ROOT / "tests" / "data" / "importer_schedule.csv"
-FMI_CRATE_MASTER = (Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target")) / "x86_64-unknown-linux-gnu" / "release"
-                    / "examples" / "fmi_crate_master")
+FMI_CRATE_MASTER = (
+    Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
+    / "x86_64-unknown-linux-gnu"
+    / "release"
+    / "examples"
+    / "fmi_crate_master"
+)
 STEP, STOP = 0.5, 1500.0
 COLUMNS = ("time", "current", "voltage", "power", "h2Flow", "energy", "h2Produced")
 C_SOURCES = [ROOT / "tests" / "c_master" / name for name in ("master.c", "fmu.c", "bad_calls.c")]
@@ -134,8 +140,10 @@ def run_fmi_crate(fmu_path, out):
     # the packaged FMU's binary, whichever profile built the master.
     if not FMI_CRATE_MASTER.is_file():
         pytest.fail(f"{FMI_CRATE_MASTER} not found: scripts/test.sh builds it (packaging/platforms.py test)")
-    run([FMI_CRATE_MASTER, "--fmu", fmu_path, "--schedule", SCHEDULE, "--step", STEP, "--stop", STOP, "--out", out],
-        cwd=ROOT)
+    run(
+        [FMI_CRATE_MASTER, "--fmu", fmu_path, "--schedule", SCHEDULE, "--step", STEP, "--stop", STOP, "--out", out],
+        cwd=ROOT,
+    )
     return read_csv(out)
 
 

@@ -5,6 +5,7 @@ the exact response to the piecewise-linear setpoint, so it can take large steps.
 reference is a second instance stepped at 1 ms with the setpoint at each short step's
 midpoint, independent of the FMU's interpolation code.
 """
+
 from ctypes import c_double, c_int, c_uint
 
 import pytest
@@ -128,7 +129,9 @@ def test_higher_derivatives_are_ignored_with_a_warning(driver):
     d, plain = driver(), driver()
     for x in (d, plain):
         x.initialize(setpoint=80.0)
-    status = d.fmu.fmi2SetRealInputDerivatives(d.fmu.component, (c_uint * 1)(d.vr["setpoint"]), 1, (c_int * 1)(2), (c_double * 1)(0.5))
+    status = d.fmu.fmi2SetRealInputDerivatives(
+        d.fmu.component, (c_uint * 1)(d.vr["setpoint"]), 1, (c_int * 1)(2), (c_double * 1)(0.5)
+    )
     assert status == 1  # fmi2Warning
     assert any(label == "WARNING" and "order 2" in text for label, _, text in d.messages)
     d.step(10.0)

@@ -4,6 +4,7 @@ the CIGRE HV grid in pandapower) against conservation of power and fresh load fl
 
 Expected values come from the FMU run alone, the wind series recomputed, the FMU's model
 description read with ElementTree, or pandapower run without mosaik; none from the simulator."""
+
 import re
 import subprocess
 import sys
@@ -69,16 +70,28 @@ def test_an_hour_runs_in_bounded_time_and_writes_its_files(hour):
         rows = f.read().splitlines()
     assert len(rows) == DURATION + 1
     assert all(re.fullmatch(r".+ \[(s|MW|MWh|kg|1|pu|%)\]", h) for h in header), header
-    assert {"time [s]", "vm Bus 5 [pu]", "loading Line 1-2 [%]", "hub power [MW]", "hub H2 [kg]",
-            "slack power [MW]"} <= set(header)
+    assert {
+        "time [s]",
+        "vm Bus 5 [pu]",
+        "loading Line 1-2 [%]",
+        "hub power [MW]",
+        "hub H2 [kg]",
+        "slack power [MW]",
+    } <= set(header)
     assert out.with_suffix(".png").stat().st_size > 10_000
 
 
 def test_power_is_conserved_at_every_step(hour):
     _, r, _ = hour
     # slack = loads (the hub's among them) + shunts - static generators (wind) - generators + losses
-    residual = r["P_ext_grid[MW]"] - (r["P_load[MW]"] + r["P_shunt[MW]"] - r["P_sgen[MW]"] - r["P_gen[MW]"]
-                                      + r["P_loss_line[MW]"] + r["P_loss_trafo[MW]"])
+    residual = r["P_ext_grid[MW]"] - (
+        r["P_load[MW]"]
+        + r["P_shunt[MW]"]
+        - r["P_sgen[MW]"]
+        - r["P_gen[MW]"]
+        + r["P_loss_line[MW]"]
+        + r["P_loss_trafo[MW]"]
+    )
     assert np.abs(residual).max() < 1e-6
     fixed = pn.create_cigre_network_hv()
     assert np.allclose(r["P_load[MW]"] - fixed.load.p_mw.sum(), r["hub load in grid"], rtol=0, atol=1e-9)
@@ -182,8 +195,9 @@ with mosaik.World(cfg, skip_greetings=True, configure_logging=False) as world:
 
 
 def test_an_fmu_error_ends_a_mosaik_run_with_the_message_not_a_hang(fmu_path):
-    done = subprocess.run([sys.executable, "-c", MOSAIK_ERROR, str(fmu_path)], cwd=ROOT, capture_output=True,
-                          text=True, timeout=60)
+    done = subprocess.run(
+        [sys.executable, "-c", MOSAIK_ERROR, str(fmu_path)], cwd=ROOT, capture_output=True, text=True, timeout=60
+    )
     assert done.returncode == 1
     assert "aem_electrolyser.mosaik.simulator.FMUError: Hub_0: fmi2ExitInitializationMode" in done.stderr, done.stderr
     assert "nModules = -5 is invalid" in done.stderr
@@ -211,12 +225,18 @@ def test_a_module_with_half_second_ticks_and_two_second_steps(fmu_path):
 def enumeration_fmu(fmu, path):
     """The FMU if its dispatch, belowMinimum and operatingState are FMI Enumerations, else a copy
     of it where they are."""
-    items = {"Dispatch": ["equal", "sequential", "rotation"], "BelowMinimum": ["stayAtMinimum", "standby", "off"],
-             "OperatingState": ["idle", "starting", "running", "standby", "stopping"]}
+    items = {
+        "Dispatch": ["equal", "sequential", "rotation"],
+        "BelowMinimum": ["stayAtMinimum", "standby", "off"],
+        "OperatingState": ["idle", "starting", "running", "standby", "stopping"],
+    }
     first = {"Dispatch": 1, "BelowMinimum": 0, "OperatingState": 0}
-    types = "".join(f'<SimpleType name="{t}"><Enumeration>'
-                    + "".join(f'<Item name="{n}" value="{first[t] + i}"/>' for i, n in enumerate(names))
-                    + "</Enumeration></SimpleType>" for t, names in items.items())
+    types = "".join(
+        f'<SimpleType name="{t}"><Enumeration>'
+        + "".join(f'<Item name="{n}" value="{first[t] + i}"/>' for i, n in enumerate(names))
+        + "</Enumeration></SimpleType>"
+        for t, names in items.items()
+    )
     with zipfile.ZipFile(fmu) as z:
         files = {n: z.read(n) for n in z.namelist()}
     xml = files["modelDescription.xml"].decode()
@@ -224,8 +244,9 @@ def enumeration_fmu(fmu, path):
         return fmu
     xml = xml.replace("<LogCategories>", f"<TypeDefinitions>{types}</TypeDefinitions>\n  <LogCategories>", 1)
     for name, t in [("dispatch", "Dispatch"), ("belowMinimum", "BelowMinimum"), ("operatingState", "OperatingState")]:
-        xml, n = re.subn(rf'(name="{name}".*?)<Integer', rf'\1<Enumeration declaredType="{t}"', xml, count=1,
-                         flags=re.S)
+        xml, n = re.subn(
+            rf'(name="{name}".*?)<Integer', rf'\1<Enumeration declaredType="{t}"', xml, count=1, flags=re.S
+        )
         assert n == 1
     files["modelDescription.xml"] = xml.encode()
     with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
@@ -249,8 +270,15 @@ def test_enumerations_are_set_and_got_as_integers(fmu_path, tmp_path, wind):
         for e, data in sim.get_data({e: HUB_OUTPUTS + ["operatingState"] for e in got}).items():
             got[e].append(list(data.values()))
     sim.finalize()
-    ref = alone(fmu_path, wind[:300], outputs=HUB_OUTPUTS + ["operatingState"], nModules=N, dispatch=2,
-                belowMinimum=1, powerInput=True)
+    ref = alone(
+        fmu_path,
+        wind[:300],
+        outputs=HUB_OUTPUTS + ["operatingState"],
+        nModules=N,
+        dispatch=2,
+        belowMinimum=1,
+        powerInput=True,
+    )
     for e, rows in got.items():
         assert np.array_equal(np.array(rows, dtype=float), np.column_stack(list(ref.values()))), e
     assert ref["modulesStandby"].max() > 0  # the sequential hub did use standby

@@ -8,6 +8,7 @@ files alike.
 Wine 8.0 lacks bcryptprimitives.dll, which Rust's standard library imports on Windows (every
 Windows 10 and later has it): tests/windows/bcryptprimitives.c, built here, stands in for it on
 Wine's search path and is never shipped."""
+
 import json
 import re
 import shutil
@@ -32,8 +33,17 @@ IDENTIFY_LINUX = ROOT / "target" / "dist" / "linux64" / "aem-identify"
 RUN_EXE = ROOT / "target" / "dist" / "win64" / "aem-run.exe"
 RUN_LINUX64 = ROOT / "target" / "dist" / "linux64" / "aem-run"
 #: DLLs every Windows 10 and later has; the FMU's DLL may import these and no others.
-SYSTEM_DLLS = {"kernel32.dll", "ntdll.dll", "msvcrt.dll", "userenv.dll", "ws2_32.dll", "bcryptprimitives.dll",
-               "api-ms-win-core-synch-l1-2-0.dll", "advapi32.dll", "bcrypt.dll"}
+SYSTEM_DLLS = {
+    "kernel32.dll",
+    "ntdll.dll",
+    "msvcrt.dll",
+    "userenv.dll",
+    "ws2_32.dll",
+    "bcryptprimitives.dll",
+    "api-ms-win-core-synch-l1-2-0.dll",
+    "advapi32.dll",
+    "bcrypt.dll",
+}
 
 
 def require(tool):
@@ -45,7 +55,9 @@ def require(tool):
 
 def run(cmd, timeout=300, **kwargs):
     done = subprocess.run([str(c) for c in cmd], capture_output=True, timeout=timeout, **kwargs)
-    assert done.returncode == 0, f"{cmd}\nexit {done.returncode}\n{done.stdout.decode(errors='replace')}\n{done.stderr.decode(errors='replace')}"
+    assert done.returncode == 0, (
+        f"{cmd}\nexit {done.returncode}\n{done.stdout.decode(errors='replace')}\n{done.stderr.decode(errors='replace')}"
+    )
     return done.stdout.decode(errors="replace")
 
 
@@ -74,7 +86,18 @@ def masters(fmi_headers, tmp_path_factory):
     out = tmp_path_factory.mktemp("masters")
     linux, windows = out / "master", out / "master.exe"
     run([require("gcc"), *C_FLAGS, f"-I{fmi_headers}", *C_SOURCES, "-o", linux, "-ldl", "-lm"])
-    run([require(MINGW_GCC), *C_FLAGS, "-D__USE_MINGW_ANSI_STDIO=1", f"-I{fmi_headers}", *C_SOURCES, "-o", windows, "-static"])
+    run(
+        [
+            require(MINGW_GCC),
+            *C_FLAGS,
+            "-D__USE_MINGW_ANSI_STDIO=1",
+            f"-I{fmi_headers}",
+            *C_SOURCES,
+            "-o",
+            windows,
+            "-static",
+        ]
+    )
     return linux, windows
 
 
@@ -95,7 +118,9 @@ def assert_bit_identical(a, b, what):
 
 @pytest.mark.parametrize("binary", ["the FMU's library", "aem-run", "aem-identify"])
 def test_the_linux_binary_needs_glibc_2_17_at_most(fmu_dir, binary):
-    path = {"aem-run": RUN_LINUX64, "aem-identify": IDENTIFY_LINUX}.get(binary, fmu_dir / "binaries" / "linux64" / f"{MODEL}.so")
+    path = {"aem-run": RUN_LINUX64, "aem-identify": IDENTIFY_LINUX}.get(
+        binary, fmu_dir / "binaries" / "linux64" / f"{MODEL}.so"
+    )
     if not path.is_file():
         pytest.fail(f"{path} not found: scripts/test.sh builds it (packaging/platforms.py aem-run)")
     symbols = run([require("objdump"), "-T", path])
@@ -157,8 +182,10 @@ def test_windows_paths_and_file_uris_find_the_module_parameter_file(masters, fmu
     """moduleParameterFile with a drive letter and backslashes, as a file URI with and without
     a host, and relative (found in the resources folder, whose fmuResourceLocation the master
     passes percent-encoded, with and without the host part): all give the Linux run's bits."""
-    modules = [{"module": f"M{k}", "parameters": {"gain": {"value": g, "unit": "A/%", "source": "identified"}}}
-               for k, g in enumerate([0.50, 0.56, 0.53])]
+    modules = [
+        {"module": f"M{k}", "parameters": {"gain": {"value": g, "unit": "A/%", "source": "identified"}}}
+        for k, g in enumerate([0.50, 0.56, 0.53])
+    ]
     text = json.dumps({"generator": "test", "modules": modules})
     params = tmp_path / "modules dir" / "params.json"
     params.parent.mkdir()
@@ -238,8 +265,18 @@ def test_aem_run_exe_drives_the_fmu_to_the_kpis_of_the_linux_build(wine, fmu_pat
     rng = np.random.default_rng(5)
     reference = tmp_path / "reference.f64"
     np.clip(30e6 + np.cumsum(rng.normal(0, 3e5, 3600)), 0, 70e6).astype("<f8").tofile(reference)
-    args = ["--step", "1", "--param", "dispatch=2", "--param", "belowMinimum=1", "--hub-size", "0.8",
-            "--source-rating", "64e6"]
+    args = [
+        "--step",
+        "1",
+        "--param",
+        "dispatch=2",
+        "--param",
+        "belowMinimum=1",
+        "--hub-size",
+        "0.8",
+        "--source-rating",
+        "64e6",
+    ]
     linux = json.loads(run([RUN_LINUX64, "--fmu", fmu_path, "--reference", reference, *args]))
     windows = json.loads(wine(RUN_EXE, "--fmu", windows_path(fmu_path), "--reference", windows_path(reference), *args))
     assert linux["status"] == "done" and linux["kpis"]["starts per module [1]"] > 0, linux

@@ -9,6 +9,7 @@ factor. Every output states one capacity per product (the one to sell); every pr
 has plots that name what limits it; a bad argument is one line (status 2), a failure in a
 worker one line in the FMU's own words (status 1).
 """
+
 import csv
 import json
 import math
@@ -31,15 +32,22 @@ COMMAND = [sys.executable, "-m", "aem_electrolyser.reserves.prequalify"]
 
 
 def prequalify(*args, env=None, timeout=600):
-    return subprocess.run([*COMMAND, *map(str, args)], cwd=ROOT, capture_output=True, text=True, timeout=timeout,
-                          env=None if env is None else {**os.environ, **env})
+    return subprocess.run(
+        [*COMMAND, *map(str, args)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        env=None if env is None else {**os.environ, **env},
+    )
 
 
 @pytest.fixture(scope="module")
 def assessed(fmu_path, tmp_path_factory):
     out = tmp_path_factory.mktemp("prequalification")
-    done = prequalify("--fmu", fmu_path, "--modules", N, "--baseline", 80, "--products", ",".join(PRODUCTS),
-                      "--out", out, "--jobs", 2)
+    done = prequalify(
+        "--fmu", fmu_path, "--modules", N, "--baseline", 80, "--products", ",".join(PRODUCTS), "--out", out, "--jobs", 2
+    )
     assert done.returncode == 0, done.stdout + done.stderr
     with open(out / "summary.csv", newline="") as f:
         rows = {(r["product"], r["compensation"]): r for r in csv.DictReader(f)}
@@ -100,6 +108,7 @@ def test_reports_state_what_they_are_and_every_requirement(assessed):
 
 # --- one capacity per product, everywhere ------------------------------------------------------
 
+
 def md_capacities(text):
     """{product: (capacity [W], % of rated)} from the headline of each section of a hub's report."""
     found = {}
@@ -153,13 +162,29 @@ def test_every_csv_header_with_a_number_names_its_unit(assessed):
     for path in [out / "summary.csv", *(out / f"{stem}.csv" for stem in HUBS.values())]:
         with open(path, newline="", encoding="utf-8") as f:
             header = next(csv.reader(f))
-        numeric = [h for h in header if h.split(" [")[0] in (
-            "baseline", "capacity", "capacity before reduction", "tested capacity", "reduction factor", "measured",
-            "low", "high", "K_red", "K_red min", "K_red max")]
+        numeric = [
+            h
+            for h in header
+            if h.split(" [")[0]
+            in (
+                "baseline",
+                "capacity",
+                "capacity before reduction",
+                "tested capacity",
+                "reduction factor",
+                "measured",
+                "low",
+                "high",
+                "K_red",
+                "K_red min",
+                "K_red max",
+            )
+        ]
         assert numeric and all(re.search(r"\[.+\]$", h) for h in numeric), header
 
 
 # --- plots ---------------------------------------------------------------------------------------
+
 
 def test_every_product_tested_has_plots_that_name_what_limits_it(assessed):
     """Passing or failing, each product has its plots (at the capacity, or at the smallest
@@ -184,8 +209,23 @@ def test_every_product_tested_has_plots_that_name_what_limits_it(assessed):
 def test_an_empty_window_is_not_tested(fmu_path, tmp_path):
     """At 100 % baseline a downward product (draw more) has no room: capacity 0, limited by the
     operating window, nothing run and nothing plotted."""
-    done = prequalify("--fmu", fmu_path, "--modules", N, "--baseline", 100, "--compensation", "off",
-                      "--products", "FCR-D down", "--out", tmp_path, "--jobs", 1, timeout=120)
+    done = prequalify(
+        "--fmu",
+        fmu_path,
+        "--modules",
+        N,
+        "--baseline",
+        100,
+        "--compensation",
+        "off",
+        "--products",
+        "FCR-D down",
+        "--out",
+        tmp_path,
+        "--jobs",
+        1,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr
     (row,) = csv.DictReader(open(tmp_path / "summary.csv", newline=""))
     assert float(row["capacity [W]"]) == 0 and row["limiting requirement"] == "operating window"
@@ -195,18 +235,22 @@ def test_an_empty_window_is_not_tested(fmu_path, tmp_path):
 
 # --- the command line ----------------------------------------------------------------------------
 
-@pytest.mark.parametrize("args, option, words", [
-    (["--modules", "-1000"], "--modules", ["positive"]),
-    (["--modules", "0"], "--modules", ["positive"]),
-    (["--modules", str(2**31)], "--modules", ["2147483647"]),
-    (["--dispatch", "eqaul"], "--dispatch", ["equal", "sequential", "did you mean 'equal'"]),
-    (["--products", "FCR-D upp"], "--products", ["did you mean 'FCR-D up'"]),
-    (["--baseline", "120"], "--baseline", ["100"]),
-    (["--baseline", "80,0"], "--baseline", ["100"]),
-    (["--compensation", "bth"], "--compensation", ["did you mean 'both'"]),
-    (["--dt", "-0.1"], "--dt", ["positive"]),
-    (["--jobs", "0"], "--jobs", ["positive"]),
-])
+
+@pytest.mark.parametrize(
+    "args, option, words",
+    [
+        (["--modules", "-1000"], "--modules", ["positive"]),
+        (["--modules", "0"], "--modules", ["positive"]),
+        (["--modules", str(2**31)], "--modules", ["2147483647"]),
+        (["--dispatch", "eqaul"], "--dispatch", ["equal", "sequential", "did you mean 'equal'"]),
+        (["--products", "FCR-D upp"], "--products", ["did you mean 'FCR-D up'"]),
+        (["--baseline", "120"], "--baseline", ["100"]),
+        (["--baseline", "80,0"], "--baseline", ["100"]),
+        (["--compensation", "bth"], "--compensation", ["did you mean 'both'"]),
+        (["--dt", "-0.1"], "--dt", ["positive"]),
+        (["--jobs", "0"], "--jobs", ["positive"]),
+    ],
+)
 def test_a_bad_argument_is_one_line_before_any_work(args, option, words, fmu_path, tmp_path):
     done = prequalify("--fmu", fmu_path, "--out", tmp_path / "out", *args, timeout=60)
     lines = [line for line in done.stderr.splitlines() if line.strip()]
@@ -218,8 +262,9 @@ def test_a_bad_argument_is_one_line_before_any_work(args, option, words, fmu_pat
 def test_a_baseline_below_the_least_steady_power_is_refused(fmu_path, tmp_path):
     """The hub draws at least every module at minSetpoint: P(60 %)/P(100 %) of rated."""
     least = 100 * module_power(PAPER["minSetpoint"]) / module_power(PAPER["maxSetpoint"])
-    done = prequalify("--fmu", fmu_path, "--modules", N, "--baseline", f"80,{least - 1:.1f}", "--out", tmp_path,
-                      timeout=60)
+    done = prequalify(
+        "--fmu", fmu_path, "--modules", N, "--baseline", f"80,{least - 1:.1f}", "--out", tmp_path, timeout=60
+    )
     lines = [line for line in done.stderr.splitlines() if line.strip()]
     assert done.returncode == 2 and len(lines) == 1, done.stderr
     assert "--baseline" in lines[0] and f"{least:.2f}" in lines[0], lines[0]
@@ -267,9 +312,24 @@ def test_a_refusal_in_a_worker_is_one_line_in_the_fmus_words(fmu_path, tmp_path)
     (tmp_path / "site").mkdir()
     (tmp_path / "site" / "sitecustomize.py").write_text(SITE)
     path = os.pathsep.join([str(tmp_path / "site"), *filter(None, [os.environ.get("PYTHONPATH")])])
-    done = prequalify("--fmu", fmu_path, "--modules", N, "--baseline", 80, "--compensation", "off",
-                      "--products", "mFRR up,FFR 49.7 Hz", "--out", tmp_path / "out", "--jobs", 2,
-                      env={"PYTHONPATH": path}, timeout=300)
+    done = prequalify(
+        "--fmu",
+        fmu_path,
+        "--modules",
+        N,
+        "--baseline",
+        80,
+        "--compensation",
+        "off",
+        "--products",
+        "mFRR up,FFR 49.7 Hz",
+        "--out",
+        tmp_path / "out",
+        "--jobs",
+        2,
+        env={"PYTHONPATH": path},
+        timeout=300,
+    )
     lines = [line for line in done.stderr.splitlines() if line.strip()]
     assert done.returncode == 1 and len(lines) == 1, done.stderr
     assert said in lines[0] and "FFR 49.7 Hz" in lines[0] and "Traceback" not in done.stderr, lines[0]

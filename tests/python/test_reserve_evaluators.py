@@ -1,6 +1,7 @@
 """reserves/: every evaluator on synthetic power traces whose answers are computed here in closed
 form (first-order units, ramp-limited units, hand-computed piecewise-linear traces, sines of
 known linear systems), the signals against the NTR/NTP tables, the bisection and the reports."""
+
 import csv
 import json
 import math
@@ -12,8 +13,8 @@ from aem_electrolyser.reserves import activation, bisection, evaluate as ev, fre
 from aem_electrolyser.reserves import report, signals as S
 from aem_electrolyser.reserves.requirement import FAIL, PASS, UNSURE, Trace
 
-C = 2.0e6          # capacity offered [W]
-BASE = 50.0e6      # hub consumption without activation [W]
+C = 2.0e6  # capacity offered [W]
+BASE = 50.0e6  # hub consumption without activation [W]
 
 
 def trace(sig, dp_up, **kw):
@@ -41,9 +42,9 @@ def test_fcr_d_ramp_signal_follows_table_4():
     up, down = S.fcr_d_ramp(S.UP), S.fcr_d_ramp(S.DOWN, combination=True)
     f = lambda s, t: s.f[int(round(t / 0.1))]  # noqa: E731
     assert f(up, 29.9) == 49.9 and f(up, 34.9) == pytest.approx(49.45, abs=1e-12)
-    assert f(up, 31.0) == pytest.approx(49.9 - 0.14, abs=1e-12)       # 0.14 Hz/s
+    assert f(up, 31.0) == pytest.approx(49.9 - 0.14, abs=1e-12)  # 0.14 Hz/s
     assert f(up, 37.4) == pytest.approx(49.45 + 0.09 * 2.5, abs=1e-12)  # 0.09 Hz/s
-    assert f(up, 691.0) == pytest.approx(49.9 - 0.24, abs=1e-12)       # ramp 5, 0.24 Hz/s
+    assert f(up, 691.0) == pytest.approx(49.9 - 0.24, abs=1e-12)  # ramp 5, 0.24 Hz/s
     assert f(up, 693.8) == 49.0 and f(up, 1049.9) == 50.0 and up.t[-1] == 1050.0
     assert f(down, 700.0) == 51.0 and f(down, 1300.0) == pytest.approx(50.3, abs=1e-12)
     assert f(down, 1600.0) == pytest.approx(50.11, abs=1e-12) and down.t[-1] == 1650.0
@@ -53,8 +54,7 @@ def test_fcr_d_ramp_signal_follows_table_4():
 
 def test_fcr_n_static_and_sine_signals():
     n = S.fcr_n_steps()
-    assert [n.f[int(t * 10)] for t in (10, 45, 100, 400, 700, 1000)] == \
-        [50.0, 49.95, 50.0, 49.9, 50.1, 50.0]
+    assert [n.f[int(t * 10)] for t in (10, 45, 100, 400, 700, 1000)] == [50.0, 49.95, 50.0, 49.9, 50.1, 50.0]
     # the last 60 s before the step at 2160 s, ending 1 s before it
     assert S.fcr_n_steps(endurance=True).marks["ss2"] == (2099.0, 2159.0)
     st = S.static_fcr_d_ramp(S.DOWN, endurance="LER")
@@ -63,8 +63,7 @@ def test_fcr_n_static_and_sine_signals():
     a, b = s.marks["eval"]
     assert b - a == 5 * 25 and s.t[-1] == 60 + 10 * 25
     sel = s.t >= s.marks["t_sine"]
-    assert s.f[sel].max() == pytest.approx(50.4, abs=1e-4) and s.f[sel].min() == \
-        pytest.approx(50.2, abs=1e-4)
+    assert s.f[sel].max() == pytest.approx(50.4, abs=1e-4) and s.f[sel].min() == pytest.approx(50.2, abs=1e-4)
     assert S.sine_periods("FCR-D up") == [10, 15, 25, 40, 50, 60, 70]
     assert len(S.sine_periods("FCR-N")) == 10
 
@@ -91,7 +90,7 @@ def test_fcr_d_first_order_unit_against_closed_form(tau):
     e75 = C * (7.5 - tau * (1 - math.exp(-7.5 / tau)))
     r2, r3 = by(res, "Req. 2"), by(res, "Req. 3")
     assert r2.measured == pytest.approx(d75, rel=1e-9)
-    assert r3.measured == pytest.approx(e75, rel=1e-3)   # trapezoid at 0.1 s
+    assert r3.measured == pytest.approx(e75, rel=1e-3)  # trapezoid at 0.1 s
     assert r2.status == (PASS if d75 >= 0.86 * C else FAIL)
     assert r3.status == (PASS if e75 >= 3.2 * C else FAIL)
     k2 = d75 / (0.86 * C)
@@ -102,7 +101,7 @@ def test_fcr_d_first_order_unit_against_closed_form(tau):
     if tau == 6.0:
         assert r2.status == FAIL and r3.status == PASS and 0.75 < r2.k_red < 1
     if tau == 10.0:
-        assert r2.status == FAIL and r2.k_red is None    # 0.61 < 0.75
+        assert r2.status == FAIL and r2.k_red is None  # 0.61 < 0.75
 
 
 def test_fcr_d_down_is_the_mirror_of_up():
@@ -118,8 +117,14 @@ def test_fcr_d_down_is_the_mirror_of_up():
 
 def test_fcr_d_steady_state_band_and_reduction():
     sig = S.fcr_d_ramp()
-    for x, status, k in ((0.95, PASS, 1.0), (0.94, FAIL, 0.94 / 0.95), (1.2, PASS, 1.0),
-                         (1.21, FAIL, None), (0.80, FAIL, 0.80 / 0.95), (0.70, FAIL, None)):
+    for x, status, k in (
+        (0.95, PASS, 1.0),
+        (0.94, FAIL, 0.94 / 0.95),
+        (1.2, PASS, 1.0),
+        (1.21, FAIL, None),
+        (0.80, FAIL, 0.80 / 0.95),
+        (0.70, FAIL, None),
+    ):
         d = static_unit(sig) * x
         r = by(ev.fcr_d_ramp(trace(sig, d), C, sig), "Req. 1")
         assert r.measured == pytest.approx(100 * (x - 1), abs=1e-9)
@@ -142,26 +147,35 @@ def hand_deactivation(sig, dn, peak, rise, hold, fall):
     s, held `hold` s, linear to 0 over `fall` s; the rest of the test on the static
     characteristic from 90 s on."""
     tn = 34.4
-    pts = [(0, 0), (30, 0), (tn, dn), (tn + rise, peak), (tn + rise + hold, peak),
-           (tn + rise + hold + fall, 0), (89.9, 0)]
+    pts = [
+        (0, 0),
+        (30, 0),
+        (tn, dn),
+        (tn + rise, peak),
+        (tn + rise + hold, peak),
+        (tn + rise + hold + fall, 0),
+        (89.9, 0),
+    ]
     d = C * S.piecewise(sig.t, pts)
     late = sig.t >= 90
     d[late] = static_unit(sig)[late]
     return d
 
 
-@pytest.mark.parametrize("dn, peak, rise, hold, fall, expected", [
-    # threshold min(0.8, 0.5) = 0.5: 0.3·hold + ½·0.3·(0.3/0.8·5)
-    (0.8, 0.8, 1e-9, 5.0, 5.0, 0.3 * 5 + 0.5 * 0.3 * 1.875),
-    (0.8, 0.8, 1e-9, 8.0, 5.0, 0.3 * 8 + 0.5 * 0.3 * 1.875),
-    # threshold min(0.4, 0.5) = 0.4: rise ½·0.2·2, hold 0.2·hold, fall ½·0.2·2
-    (0.4, 0.6, 2.0, 10.0, 6.0, 0.2 + 0.2 * 10 + 0.2),
-    (0.4, 0.6, 2.0, 11.0, 6.0, 0.2 + 0.2 * 11 + 0.2),
-])
+@pytest.mark.parametrize(
+    "dn, peak, rise, hold, fall, expected",
+    [
+        # threshold min(0.8, 0.5) = 0.5: 0.3·hold + ½·0.3·(0.3/0.8·5)
+        (0.8, 0.8, 1e-9, 5.0, 5.0, 0.3 * 5 + 0.5 * 0.3 * 1.875),
+        (0.8, 0.8, 1e-9, 8.0, 5.0, 0.3 * 8 + 0.5 * 0.3 * 1.875),
+        # threshold min(0.4, 0.5) = 0.4: rise ½·0.2·2, hold 0.2·hold, fall ½·0.2·2
+        (0.4, 0.6, 2.0, 10.0, 6.0, 0.2 + 0.2 * 10 + 0.2),
+        (0.4, 0.6, 2.0, 11.0, 6.0, 0.2 + 0.2 * 11 + 0.2),
+    ],
+)
 def test_fcr_d_deactivation_on_hand_computed_traces(dn, peak, rise, hold, fall, expected):
     sig = S.fcr_d_ramp()
-    r = by(ev.fcr_d_ramp(trace(sig, hand_deactivation(sig, dn, peak, rise, hold, fall)), C, sig),
-           "Req. 4")
+    r = by(ev.fcr_d_ramp(trace(sig, hand_deactivation(sig, dn, peak, rise, hold, fall)), C, sig), "Req. 4")
     assert r.measured / C == pytest.approx(expected, rel=1e-6)
     assert r.status == (PASS if expected <= 2.5 else FAIL)
 
@@ -196,8 +210,7 @@ def test_fcr_d_combination_ramps_7_and_8():
 
 def fcr_n_trace(sig, p0, p1, p2, p3):
     s1, s2, s3 = sig.marks["steps"]
-    return trace(sig, C * S.piecewise(sig.t, [(0, p0), (s1, p0), (s1, p1), (s2, p1), (s2, p2),
-                                              (s3, p2), (s3, p3)]))
+    return trace(sig, C * S.piecewise(sig.t, [(0, p0), (s1, p0), (s1, p1), (s2, p1), (s2, p2), (s3, p2), (s3, p3)]))
 
 
 @pytest.mark.parametrize("x, status", [(0.95, PASS), (0.94, FAIL), (1.20, PASS), (1.21, FAIL)])
@@ -208,15 +221,14 @@ def test_fcr_n_steady_state_band_edges(x, status):
     for r in (by(res, "Req. 1 up"), by(res, "Req. 1 down")):
         assert r.measured == pytest.approx(100 * (x - 1), abs=1e-9)
         assert r.status == status
-        assert r.k_red == (1.0 if status == PASS else
-                           pytest.approx(x / 0.95, rel=1e-12) if x < 1 else None)
+        assert r.k_red == (1.0 if status == PASS else pytest.approx(x / 0.95, rel=1e-12) if x < 1 else None)
     assert by(res, "Req. 12 up").status == UNSURE
 
 
 def test_fcr_n_reduction_below_0_9_fails():
     sig = S.fcr_n_steps()
     r = by(ev.fcr_n_steps(fcr_n_trace(sig, 0, 0.85, -1, 0), C, sig), "Req. 1 up")
-    assert r.status == FAIL and r.k_red is None       # needs 0.85/0.95 = 0.895 < 0.9
+    assert r.status == FAIL and r.k_red is None  # needs 0.85/0.95 = 0.895 < 0.9
 
 
 # ---------------------------------------------------------------- static FCR-D
@@ -244,8 +256,7 @@ def test_static_fcr_d():
     res = ev.static_fcr_d(trace(sig, d), C, sig)
     assert by(res, "10-s window").status == FAIL and by(res, "1-s step").status == PASS
     # 3 s dead time: nothing at t0 + 2.5 s
-    assert by(ev.static_fcr_d(trace(sig, static_unit(sig, delay=3.0)), C, sig),
-              "Req. 5b").status == FAIL
+    assert by(ev.static_fcr_d(trace(sig, static_unit(sig, delay=3.0)), C, sig), "Req. 5b").status == FAIL
     # 25 % overshoot, +10 % steady state
     over = static_unit(sig) * (1 + 0.15 * ((t > 181) & (t < 190)))
     res = ev.static_fcr_d(trace(sig, over * 1.1), C, sig)
@@ -283,14 +294,12 @@ def test_linearity_steps(product):
     # 6 % under-delivery in the delivered direction fails the −5 % bound
     under = ev.linearity(trace(sig, C * exp * 0.94), C, sig)
     full = [r for r, f in zip(under, sig.marks["levels"][1:]) if abs(abs(f - ref) - band) < 1e-9]
-    assert full and all(r.status == FAIL and r.measured == pytest.approx(-6.0, abs=1e-6)
-                        for r in full)
-    if product == "FCR-N":      # at exactly 50.00 Hz |ΔP| ≤ 10 %: 12 % fails
+    assert full and all(r.status == FAIL and r.measured == pytest.approx(-6.0, abs=1e-6) for r in full)
+    if product == "FCR-N":  # at exactly 50.00 Hz |ΔP| ≤ 10 %: 12 % fails
         at50 = C * exp + 0.12 * C * (np.abs(sig.f - 50.0) < 1e-9)
         res = ev.linearity(trace(sig, at50), C, sig)
         r50 = [r for r, f in zip(res, sig.marks["levels"][1:]) if f == 50.0]
-        assert len(r50) == 2 and all(r.status == FAIL and r.measured == pytest.approx(12.0)
-                                     for r in r50)
+        assert len(r50) == 2 and all(r.status == FAIL and r.measured == pytest.approx(12.0) for r in r50)
 
 
 # ---------------------------------------------------------------- sine tests
@@ -300,8 +309,7 @@ def lag_delay(w, tau, L):
     return np.exp(-1j * w * L) / (1 + 1j * w * tau)
 
 
-@pytest.mark.parametrize("product, T", [("FCR-N", 10), ("FCR-N", 60), ("FCR-D up", 25),
-                                        ("FCR-D down", 300)])
+@pytest.mark.parametrize("product, T", [("FCR-N", 10), ("FCR-N", 60), ("FCR-D up", 25), ("FCR-D down", 300)])
 def test_sine_fit_recovers_a_lag_with_delay(product, T):
     """Steady-state response of F = e^{−jωL}/(1 + jωτ) to the control error e = f_ref − f:
     ΔP_up = C/Δf_band·(e_dc + 0.1·|F|·sin(ωt' + π + ∠F)), t' = t − t_sine."""
@@ -330,7 +338,7 @@ def test_sine_linearity_ratio_closed_forms():
     k = np.round(tp / 0.1).astype(int) % 100
     sq = C * np.where(k < 50, -1.0, 1.0)
     r = fd.sine_linearity(trace(sig, sq), C, sig)[0]
-    assert r.measured == pytest.approx(math.sqrt(math.pi ** 2 / 8 - 1), rel=2e-3)
+    assert r.measured == pytest.approx(math.sqrt(math.pi**2 / 8 - 1), rel=2e-3)
     assert r.status == PASS
     # third harmonic 10× the fundamental: ratio a3/a1 = 10
     h = C * (0.1 * np.sin(w * tp) + 1.0 * np.sin(3 * w * tp))
@@ -352,8 +360,7 @@ def test_nyquist_distance_of_an_ideal_unit():
     a, b, c = 6e9 * 50 / 23e9, 0.5, 2 * 120000 / 23000
     w = 2 * np.pi / 10
     r = fd.stability(points(lambda w: np.ones_like(w)), "FCR-N")
-    assert r.measured == pytest.approx(math.sqrt(((a + b) ** 2 + (c * w) ** 2) /
-                                                 (b ** 2 + (c * w) ** 2)), rel=1e-12)
+    assert r.measured == pytest.approx(math.sqrt(((a + b) ** 2 + (c * w) ** 2) / (b**2 + (c * w) ** 2)), rel=1e-12)
     assert r.status == PASS
 
 
@@ -399,19 +406,20 @@ def ramp_limited(t, events, rho, cap=C):
 @pytest.mark.parametrize("t_full, status", [(25.0, PASS), (30.0, PASS), (35.0, FAIL)])
 def test_ce_fcr_full_activation_in_30_s(t_full, status):
     sig = S.ce_fcr_steps()
-    res = activation.ce_fcr(trace(sig, ramp_limited(sig.t, sig.marks["steps"], C / t_full)),
-                            C, sig)
+    res = activation.ce_fcr(trace(sig, ramp_limited(sig.t, sig.marks["steps"], C / t_full)), C, sig)
     assert len(res) == 4 and all(r.status == status for r in res if "30 s" in r.name)
-    assert by(res, "up (49.8 Hz): full").measured == pytest.approx(C * min(1, 30 / t_full),
-                                                                  rel=1e-9)
+    assert by(res, "up (49.8 Hz): full").measured == pytest.approx(C * min(1, 30 / t_full), rel=1e-9)
 
 
-@pytest.mark.parametrize("trigger, t_full, hold, drop_rate, ok_time, ok_support", [
-    (49.7, 1.2, 20.0, 0.1, True, True),     # 10 %/s → 5 s support needed, 20 s held
-    (49.7, 1.2, 20.0, 0.5, True, False),    # 50 %/s → 30 s needed
-    (49.5, 0.8, 40.0, 1.0, False, True),    # 0.8 s > 0.7 s
-    (49.6, 1.0, 40.0, 1.0, True, True),
-])
+@pytest.mark.parametrize(
+    "trigger, t_full, hold, drop_rate, ok_time, ok_support",
+    [
+        (49.7, 1.2, 20.0, 0.1, True, True),  # 10 %/s → 5 s support needed, 20 s held
+        (49.7, 1.2, 20.0, 0.5, True, False),  # 50 %/s → 30 s needed
+        (49.5, 0.8, 40.0, 1.0, False, True),  # 0.8 s > 0.7 s
+        (49.6, 1.0, 40.0, 1.0, True, True),
+    ],
+)
 def test_ffr(trigger, t_full, hold, drop_rate, ok_time, ok_support):
     sig = S.ffr_step(trigger)
     t, tt = sig.t, sig.marks["t_trigger"]
@@ -423,8 +431,10 @@ def test_ffr(trigger, t_full, hold, drop_rate, ok_time, ok_support):
     assert by(res, "overshoot").status == UNSURE
 
 
-@pytest.mark.parametrize("product, t_full, status", [("aFRR", 290.0, PASS), ("aFRR", 310.0, FAIL),
-                                                     ("mFRR", 740.0, PASS), ("mFRR", 760.0, FAIL)])
+@pytest.mark.parametrize(
+    "product, t_full, status",
+    [("aFRR", 290.0, PASS), ("aFRR", 310.0, FAIL), ("mFRR", 740.0, PASS), ("mFRR", 760.0, FAIL)],
+)
 def test_frr_full_activation(product, t_full, status):
     for direction in (S.UP, S.DOWN):
         sig = S.frr_step(product, direction)
@@ -432,8 +442,7 @@ def test_frr_full_activation(product, t_full, status):
         d = ramp_limited(sig.t, [(m["t_step"], direction, m["t_end"])], C / t_full)
         res = activation.frr(trace(sig, d), C, sig)
         assert by(res, "full activation").status == status
-        assert by(res, "full activation").measured == pytest.approx(
-            C * min(1, m["fat"] / t_full), rel=1e-9)
+        assert by(res, "full activation").measured == pytest.approx(C * min(1, m["fat"] / t_full), rel=1e-9)
 
 
 # ---------------------------------------------------------------- bisection
@@ -449,10 +458,13 @@ def rate_limited_unit(sig, cap, rho, dead):
     return trace(sig, d)
 
 
-@pytest.mark.parametrize("dead, limit, req", [
-    (0.0, lambda rho: rho * 7.5 / 0.86, "Req. 2"),             # min(C, 7.5ρ) ≥ 0.86·C
-    (1.0, lambda rho: rho * 6.5 ** 2 / 2 / 3.2, "Req. 3"),     # ½ρ·6.5² ≥ 3.2·C (C > 6.5ρ)
-])
+@pytest.mark.parametrize(
+    "dead, limit, req",
+    [
+        (0.0, lambda rho: rho * 7.5 / 0.86, "Req. 2"),  # min(C, 7.5ρ) ≥ 0.86·C
+        (1.0, lambda rho: rho * 6.5**2 / 2 / 3.2, "Req. 3"),  # ½ρ·6.5² ≥ 3.2·C (C > 6.5ρ)
+    ],
+)
 def test_bisection_finds_the_ramp_limited_capacity(dead, limit, req):
     """Ramp-limited unit ΔP = min(C, ρ(t − t0 − L)): Req. 2 gives C ≤ ρ(7.5 − L)/0.86, Req. 3
     gives C ≤ ρ(7.5 − L)²/6.4; L = 0: Req. 2 binds (8.72ρ < 8.79ρ); L = 1 s: Req. 3 binds
@@ -462,12 +474,16 @@ def test_bisection_finds_the_ramp_limited_capacity(dead, limit, req):
     res = bisection.largest_capacity(
         run=lambda c: rate_limited_unit(sig, c, rho, dead),
         evaluate=lambda tr, c: ev.fcr_d_ramp(tr, c, sig),
-        upper=rated, rated_power=rated, tolerance=1e-4 * rated)
+        upper=rated,
+        rated_power=rated,
+        tolerance=1e-4 * rated,
+    )
     assert res.capacity == pytest.approx(limit(rho), abs=1e-4 * rated)
     assert res.capacity <= limit(rho) + 1e-9
-    assert [r.name for r in res.limiting] == [f"FCR-D up {req}" + (
-        ": ΔP(t0 + 7.5 s) ≥ 0.86·ΔP_ss,theo" if req == "Req. 2" else
-        ": E(0-7.5 s) ≥ 3.2 s·ΔP_ss,theo")]
+    assert [r.name for r in res.limiting] == [
+        f"FCR-D up {req}"
+        + (": ΔP(t0 + 7.5 s) ≥ 0.86·ΔP_ss,theo" if req == "Req. 2" else ": E(0-7.5 s) ≥ 3.2 s·ΔP_ss,theo")
+    ]
     assert all(r.status != FAIL for r in res.at_capacity)
     assert res.percent_of_rated == pytest.approx(100 * res.capacity / rated)
 
@@ -496,10 +512,15 @@ def test_reports_and_plots(tmp_path):
     res = ev.fcr_d_ramp(tr, C, sig)
     pts = points(lambda w: lag_delay(w, 2.0, 0.5), periods=(10, 15, 25, 40, 50, 60, 70))
     cap = bisection.largest_capacity(
-        lambda c: c, lambda x, c: [ev.check("toy limit", x, "W", None, 1.5e6, "W", source="t")],
-        upper=4e6, rated_power=4e6)
-    sections = [report.Section("FCR-D up fast ramp", res, capacity=C, capacity_result=cap),
-                report.Section("FCR-D up sine tests", fd.evaluate_sine_set(pts, "FCR-D up"))]
+        lambda c: c,
+        lambda x, c: [ev.check("toy limit", x, "W", None, 1.5e6, "W", source="t")],
+        upper=4e6,
+        rated_power=4e6,
+    )
+    sections = [
+        report.Section("FCR-D up fast ramp", res, capacity=C, capacity_result=cap),
+        report.Section("FCR-D up sine tests", fd.evaluate_sine_set(pts, "FCR-D up")),
+    ]
     paths = report.write_report(tmp_path, "r", sections, "Test report", rated_power=4e6)
     md = paths["md"].read_text(encoding="utf-8")
     assert report.DISCLAIMER in md and "not a prequalification approval" in md
@@ -525,8 +546,13 @@ def test_the_sellable_capacity_is_the_one_capacity_of_every_report(tmp_path):
     rho, rated = 1.0e5, 2.0e6
     sig = S.fcr_d_ramp()
     cap = bisection.largest_capacity(
-        run=lambda c: rate_limited_unit(sig, c, rho, 0.0), evaluate=lambda tr, c: ev.fcr_d_ramp(tr, c, sig),
-        upper=rated, rated_power=rated, tolerance=1e-4 * rated, use_reduction=True)
+        run=lambda c: rate_limited_unit(sig, c, rho, 0.0),
+        evaluate=lambda tr, c: ev.fcr_d_ramp(tr, c, sig),
+        upper=rated,
+        rated_power=rated,
+        tolerance=1e-4 * rated,
+        use_reduction=True,
+    )
     assert cap.capacity == pytest.approx(7.5 * rho / (0.86 * 0.75), abs=1e-4 * rated)
     assert cap.sellable == pytest.approx(7.5 * rho / 0.86, rel=1e-9)
     assert cap.reduction_factor == pytest.approx(cap.sellable / cap.capacity)
@@ -561,6 +587,7 @@ def test_an_empty_operating_window_tests_nothing():
 def test_bisection_tries_at_most_most_steps(upper):
     """most_steps: the upper bound, then halvings until the bracket is ≤ 0.5 % of rated."""
     tried = []
-    bisection.largest_capacity(tried.append, lambda x, c: [ev.check("never", 1, "", None, 0, "", source="t")],
-                               upper=upper, rated_power=1e6)
+    bisection.largest_capacity(
+        tried.append, lambda x, c: [ev.check("never", 1, "", None, 0, "", source="t")], upper=upper, rated_power=1e6
+    )
     assert len(tried) == bisection.most_steps(upper, 1e6)

@@ -7,6 +7,7 @@ superposed closed-form step responses of G(s); compensation keeps the current in
 window's currents and under the ramp limit; FFR holds for its support duration; bad values
 are refused with the instance intact; an FMU state taken while FFR is active replays bit for bit.
 """
+
 import math
 
 import numpy as np
@@ -34,16 +35,23 @@ def hub(driver, n=4, power=None, setpoint=100.0, reals=None, compensation=False)
 
 def closed_form_request(f, c_n=0.0, c_up=0.0, c_down=0.0, c_ce=0.0):
     clamp = lambda x, lo, hi: min(max(x, lo), hi)  # noqa: E731
-    return (-c_n * clamp((50 - f) / 0.1, -1, 1) - c_up * clamp((49.9 - f) / 0.4, 0, 1)
-            + c_down * clamp((f - 50.1) / 0.4, 0, 1) - c_ce * clamp((50 - f) / 0.2, -1, 1))
+    return (
+        -c_n * clamp((50 - f) / 0.1, -1, 1)
+        - c_up * clamp((49.9 - f) / 0.4, 0, 1)
+        + c_down * clamp((f - 50.1) / 0.4, 0, 1)
+        - c_ce * clamp((50 - f) / 0.2, -1, 1)
+    )
 
 
-@pytest.mark.parametrize("product, capacities, frequencies", [
-    ("fcrNCapacity", dict(c_n=1000.0), [50.0, 49.95, 49.9, 49.8, 50.05, 50.1, 50.4]),
-    ("fcrDUpCapacity", dict(c_up=1000.0), [50.0, 49.9, 49.8, 49.5, 49.2, 50.3]),
-    ("fcrDDownCapacity", dict(c_down=1000.0), [50.0, 50.1, 50.3, 50.5, 50.9, 49.0]),
-    ("fcrCapacity", dict(c_ce=1000.0), [50.0, 49.99, 49.9, 49.8, 49.5, 50.2, 50.6]),
-])
+@pytest.mark.parametrize(
+    "product, capacities, frequencies",
+    [
+        ("fcrNCapacity", dict(c_n=1000.0), [50.0, 49.95, 49.9, 49.8, 50.05, 50.1, 50.4]),
+        ("fcrDUpCapacity", dict(c_up=1000.0), [50.0, 49.9, 49.8, 49.5, 49.2, 50.3]),
+        ("fcrDDownCapacity", dict(c_down=1000.0), [50.0, 50.1, 50.3, 50.5, 50.9, 49.0]),
+        ("fcrCapacity", dict(c_ce=1000.0), [50.0, 49.99, 49.9, 49.8, 49.5, 50.2, 50.6]),
+    ],
+)
 def test_each_product_asks_its_activation_at_the_band_edges_and_beyond(driver, product, capacities, frequencies):
     d = hub(driver, power=4 * module_power(80.0), reals={product: 1000.0})
     for f in frequencies:
@@ -82,8 +90,8 @@ def test_the_fcr_d_ramp_gives_the_superposed_closed_form_step_responses(driver):
         d.fmu.doStep(currentCommunicationPoint=d.time, communicationStepSize=h)
         d.time += h
         t = (k + 1) * h
-        steps = np.diff(np.concatenate([[90.0], setpoints[:k + 1]]))
-        ages = t - times[:k + 1]
+        steps = np.diff(np.concatenate([[90.0], setpoints[: k + 1]]))
+        ages = t - times[: k + 1]
         expected.append(K * 90.0 + K * np.sum(steps * (1 - a * np.exp(-ages / TAU1) - b * np.exp(-ages / TAU2))))
         got.append(d.get("current"))
     assert np.max(np.abs(np.array(got) - expected)) < 1e-9
@@ -100,8 +108,13 @@ def test_compensation_stays_in_the_window_and_under_the_ramp_limit(driver):
     [K*60, K*100] and never rises faster than rampUpLimit."""
     n, h = 3, 0.05
     capacity = n * (module_power(100.0) - module_power(60.0))
-    d = hub(driver, n=n, power=n * module_power(80.0), compensation=True,
-            reals={"fcrNCapacity": capacity, "fcrDUpCapacity": capacity, "fcrDDownCapacity": capacity})
+    d = hub(
+        driver,
+        n=n,
+        power=n * module_power(80.0),
+        compensation=True,
+        reals={"fcrNCapacity": capacity, "fcrDUpCapacity": capacity, "fcrDDownCapacity": capacity},
+    )
     rng = np.random.default_rng(5)
     previous = d.get("current")
     for k in range(int(300 / h)):
@@ -136,7 +149,12 @@ def test_compensation_turns_the_fcr_d_step_into_the_fast_first_order(driver):
 def test_ffr_holds_its_capacity_for_the_support_duration(driver):
     n, capacity = 4, 800.0
     baseline = n * module_power(90.0)
-    d = hub(driver, n=n, power=baseline, reals={"ffrCapacity": capacity, "ffrTriggerFrequency": 49.6, "ffrSupportDuration": 5.0})
+    d = hub(
+        driver,
+        n=n,
+        power=baseline,
+        reals={"ffrCapacity": capacity, "ffrTriggerFrequency": 49.6, "ffrSupportDuration": 5.0},
+    )
     requests = []
     for k in range(40):
         d.set(frequency=49.55 if k >= 10 else 49.8)

@@ -6,6 +6,7 @@ the cluster's (bit for bit), the FMU's own messages for refused parameters, the 
 contents for stopped, resumed and worker-killed studies, and the command-line convention
 (aem_electrolyser.cli): a wrong argument or study file is one line on stderr, status 2, before
 anything runs; a failure of the run one line, status 1."""
+
 import json
 import math
 import os
@@ -68,26 +69,30 @@ def kpi_values(frame):
 
 
 def test_constant_power_gives_the_closed_form_kpis(tmp_path, fmu_path):
-    n, hub_power, hours = 400, 0.8e6, 2.0           # 2 kW per module: inside 60…100 %
+    n, hub_power, hours = 400, 0.8e6, 2.0  # 2 kW per module: inside 60…100 %
     (tmp_path / "flat.csv").write_text(f"time [s],power [kW]\n0,{hub_power / 1e3}\n{hours * 3600},{hub_power / 1e3}\n")
-    path = write_study(tmp_path, f"""horizon = "{hours} h"
+    path = write_study(
+        tmp_path,
+        f"""horizon = "{hours} h"
 [parameters]
 nModules = {n}
 [series.flat]
 file = "flat.csv"
 column = "power [kW]"
-""", fmu_path)
+""",
+        fmu_path,
+    )
     _, frame = run_study(path, tmp_path / "out", serial=True)
     row = frame.iloc[0]
     assert row["status"] == "done", row["message"]
     t = hours * 3600.0
-    current = PAPER["gain"] * setpoint_for(hub_power / n)          # A per module
+    current = PAPER["gain"] * setpoint_for(hub_power / n)  # A per module
     rated = n * module_power(PAPER["maxSetpoint"])
     expected = {
         "modules [1]": n,
         "horizon [h]": hours,
         "reference energy [MWh]": hub_power * t / 3.6e9,
-        "energy drawn [MWh]": hub_power * t / 3.6e9,                 # E = P t
+        "energy drawn [MWh]": hub_power * t / 3.6e9,  # E = P t
         "hydrogen [kg]": n * PAPER["h2Coefficient"] * current * hours * KG_PER_NL,  # c I t
         "hub rated power [MW]": rated / 1e6,
         "full-load hours [h]": hub_power * hours / rated,
@@ -100,19 +105,24 @@ column = "power [kW]"
     for name, value in expected.items():
         assert row[name] == pytest.approx(value, rel=1e-9, abs=1e-9), name
     assert row["specific energy [kWh/kg]"] == pytest.approx(
-        expected["energy drawn [MWh]"] * 1e3 / expected["hydrogen [kg]"], rel=1e-9)
+        expected["energy drawn [MWh]"] * 1e3 / expected["hydrogen [kg]"], rel=1e-9
+    )
 
 
 def test_a_setpoint_series_drives_the_setpoint_and_has_no_wind_kpis(tmp_path, fmu_path):
     (tmp_path / "sp.csv").write_text("time,setpoint [%]\n2026-01-01T00:00:00Z,80\n2026-01-01T01:00:00Z,80\n")
-    path = write_study(tmp_path, """horizon = "2 h"
+    path = write_study(
+        tmp_path,
+        """horizon = "2 h"
 [parameters]
 nModules = 10
 [series.sp]
 file = "sp.csv"
 time = "time"
 column = "setpoint [%]"
-""", fmu_path)
+""",
+        fmu_path,
+    )
     _, frame = run_study(path, tmp_path / "out", serial=True)
     row = frame.iloc[0]
     assert row["status"] == "done", row["message"]
@@ -134,13 +144,16 @@ def test_file_series_are_held_or_interpolated_to_the_step():
         reference(definition, 300.0, 3600.0, (times, values))
 
 
-WIND_STUDY = """horizon = "1 h"
+WIND_STUDY = (
+    """horizon = "1 h"
 [series.wind]
 generator = "wind"
 [axes]
 seed = [1, 2]
 hub_size = [50, 90]
-""" + MODES
+"""
+    + MODES
+)
 
 
 def test_the_cluster_gives_the_serial_kpis_bit_for_bit(tmp_path, fmu_path):
@@ -150,7 +163,8 @@ def test_the_cluster_gives_the_serial_kpis_bit_for_bit(tmp_path, fmu_path):
     _, two = run_study(path, tmp_path / "two", workers=2)
     assert len(serial) == 8 and (serial["status"] == "done").all(), serial["message"].tolist()
     assert serial["modules [1]"].tolist() == [
-        round(s / 100 * 64e6 / module_power(PAPER["maxSetpoint"])) for _ in (1, 2) for s in (50, 90) for _ in (1, 2)]
+        round(s / 100 * 64e6 / module_power(PAPER["maxSetpoint"])) for _ in (1, 2) for s in (50, 90) for _ in (1, 2)
+    ]
     for frame in (one, two):
         assert frame["scenario"].tolist() == serial["scenario"].tolist()
         np.testing.assert_array_equal(kpi_values(frame), kpi_values(serial))
@@ -166,7 +180,9 @@ def test_the_cluster_gives_the_serial_kpis_bit_for_bit(tmp_path, fmu_path):
 def test_a_refused_parameter_and_a_bad_series_fail_alone(tmp_path, fmu_path):
     (tmp_path / "bad.csv").write_text("time [s],power [MW]\n0,10\n1,ten\n2,10\n")
     (tmp_path / "good.csv").write_text("time [s],power [MW]\n0,1\n600,1\n")
-    path = write_study(tmp_path, """horizon = "10 min"
+    path = write_study(
+        tmp_path,
+        """horizon = "10 min"
 [parameters]
 nModules = 500
 [series.good]
@@ -178,9 +194,15 @@ column = "power [MW]"
 [axes]
 series = ["good", "bad"]
 hysteresis = [-1, 5]
-""", fmu_path)
-    done = subprocess.run(AEM_STUDY + [str(path), "--out", str(tmp_path / "out"), "--workers", "2", "--no-plots"],
-                          capture_output=True, text=True, timeout=300)
+""",
+        fmu_path,
+    )
+    done = subprocess.run(
+        AEM_STUDY + [str(path), "--out", str(tmp_path / "out"), "--workers", "2", "--no-plots"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 1, done.stderr
     frame = pd.read_parquet(tmp_path / "out" / "kpis.parquet")
     status = dict(zip(zip(frame["series"], frame["hysteresis [%]"]), zip(frame["status"], frame["message"])))
@@ -207,25 +229,27 @@ def test_study_file_mistakes_stop_before_anything_runs(tmp_path, fmu_path, capsy
     """Each mistake: status 2, one line naming the file, the table and key, and the nearest
     allowed name; no output folder made."""
     for body, said in [
-        (WIND + '[axes]\nhysterisis = [1]\n', "[axes]: unknown axis 'hysterisis' (did you mean 'hysteresis'?)"),
-        (WIND + '[axes]\nhub_sise = [40]\n', "[axes]: unknown axis 'hub_sise' (did you mean 'hub_size'?)"),
+        (WIND + "[axes]\nhysterisis = [1]\n", "[axes]: unknown axis 'hysterisis' (did you mean 'hysteresis'?)"),
+        (WIND + "[axes]\nhub_sise = [40]\n", "[axes]: unknown axis 'hub_sise' (did you mean 'hub_size'?)"),
         (WIND + '[axes]\ndispatch = ["equally"]\n', "one of equal, sequential, rotation (did you mean 'equal'?)"),
-        (WIND + '[parameters]\nnModules = 2.5\n', "[parameters] nModules = 2.5 is not an Integer"),
-        (WIND + '[parameters]\nhysterisis = 2\n', "no parameter 'hysterisis' (did you mean 'hysteresis'?)"),
-        (WIND + '[parameters]\npowerInput = true\n', "set by aem-study"),
-        (WIND + '[parameters]\nhub_size = 80\n', "hub_size is an axis, not an FMU parameter"),
-        ('[axes]\nseed = [1]\n', "no [series.NAME] table"),
-        (WIND + 'climate = { mean_sped = 9 }\n', "unknown field 'mean_sped' (did you mean 'mean_speed'?)"),
-        ('[series.f]\nfile = "x.csv"\ncolumn = "p [MW]"\ninterpolate = "linear"\n',
-         "[series.f]: unknown key 'interpolate' (did you mean 'interpolation'?)"),
+        (WIND + "[parameters]\nnModules = 2.5\n", "[parameters] nModules = 2.5 is not an Integer"),
+        (WIND + "[parameters]\nhysterisis = 2\n", "no parameter 'hysterisis' (did you mean 'hysteresis'?)"),
+        (WIND + "[parameters]\npowerInput = true\n", "set by aem-study"),
+        (WIND + "[parameters]\nhub_size = 80\n", "hub_size is an axis, not an FMU parameter"),
+        ("[axes]\nseed = [1]\n", "no [series.NAME] table"),
+        (WIND + "climate = { mean_sped = 9 }\n", "unknown field 'mean_sped' (did you mean 'mean_speed'?)"),
+        (
+            '[series.f]\nfile = "x.csv"\ncolumn = "p [MW]"\ninterpolate = "linear"\n',
+            "[series.f]: unknown key 'interpolate' (did you mean 'interpolation'?)",
+        ),
         ('[series.f]\nfile = "x.csv"\ncolumn = "p [MW]"\n', "[series.f] file: no file"),
-        (WIND + '[axis]\nseed = [1]\n', "unknown table [axis] (did you mean 'axes'?)"),
+        (WIND + "[axis]\nseed = [1]\n", "unknown table [axis] (did you mean 'axes'?)"),
         (WIND + '[axes]\nseed = [1, "two"]\n', "[axes] seed: 'two' is not a seed"),
-        (WIND + '[axes]\nhub_size = [40, 0]\n', "[axes] hub_size: 0 is not a hub size"),
+        (WIND + "[axes]\nhub_size = [40, 0]\n", "[axes] hub_size: 0 is not a hub size"),
         (WIND + '[axes]\nstep = ["1 s", "0 s"]\n', "[axes] step: '0 s' is not a positive duration"),
-        (WIND + '[axes]\nhub_size = 40\n', "[axes] hub_size: give a non-empty list"),
+        (WIND + "[axes]\nhub_size = 40\n", "[axes] hub_size: give a non-empty list"),
         (WIND + '[axes.mode]\nequal = "equal"\n', "[axes.mode] equal must be a table"),
-        (WIND + '[axes]\nseed = [1,\n', "not valid TOML"),
+        (WIND + "[axes]\nseed = [1,\n", "not valid TOML"),
     ]:
         path = write_study(tmp_path, body, fmu_path)
         assert cli.main([str(path), "--serial", "--out", str(tmp_path / "out")]) == 2, body
@@ -239,23 +263,36 @@ def test_study_file_mistakes_stop_before_anything_runs(tmp_path, fmu_path, capsy
 def test_a_misspelled_axis_names_the_valid_axes_and_the_nearest(tmp_path, fmu_path):
     """The installed command, as a user meets it: one line on stderr, status 2, the valid axes
     (the study's own and the FMU's parameters), the nearest one; nothing on stdout."""
-    path = write_study(tmp_path, WIND + '[axes]\nseed = [1]\nhub_sise = [40, 60]\n', fmu_path)
-    done = subprocess.run(AEM_STUDY + [str(path), "--serial", "--out", str(tmp_path / "out")],
-                          capture_output=True, text=True, timeout=120)
+    path = write_study(tmp_path, WIND + "[axes]\nseed = [1]\nhub_sise = [40, 60]\n", fmu_path)
+    done = subprocess.run(
+        AEM_STUDY + [str(path), "--serial", "--out", str(tmp_path / "out")], capture_output=True, text=True, timeout=120
+    )
     assert done.returncode == 2 and done.stdout == "", done
-    assert_one_line(done.stderr, "aem-study: error: ", str(path), "'hub_sise'", "did you mean 'hub_size'?",
-                    "valid axes: series, seed, hub_size, step, horizon", "hysteresis", "dispatch", "nModules")
+    assert_one_line(
+        done.stderr,
+        "aem-study: error: ",
+        str(path),
+        "'hub_sise'",
+        "did you mean 'hub_size'?",
+        "valid axes: series, seed, hub_size, step, horizon",
+        "hysteresis",
+        "dispatch",
+        "nModules",
+    )
     assert not (tmp_path / "out").exists()
 
 
-@pytest.mark.parametrize("arguments, said", [
-    (["--workers", "0"], "--workers: must be a positive integer, not 0"),
-    (["--workers", "-1"], "--workers: must be a positive integer, not -1"),
-    (["--workers", "two"], "--workers: 'two' is not an integer"),
-    (["--workers", "2", "--serial"], "not allowed with argument"),
-    (["--serail"], "unknown option --serail (did you mean '--serial'?)"),
-    (["--runner", "no-such-aem-run"], "--runner: no file no-such-aem-run"),
-])
+@pytest.mark.parametrize(
+    "arguments, said",
+    [
+        (["--workers", "0"], "--workers: must be a positive integer, not 0"),
+        (["--workers", "-1"], "--workers: must be a positive integer, not -1"),
+        (["--workers", "two"], "--workers: 'two' is not an integer"),
+        (["--workers", "2", "--serial"], "not allowed with argument"),
+        (["--serail"], "unknown option --serail (did you mean '--serial'?)"),
+        (["--runner", "no-such-aem-run"], "--runner: no file no-such-aem-run"),
+    ],
+)
 def test_bad_arguments_are_one_line_and_status_2(tmp_path, fmu_path, capsys, arguments, said):
     path = write_study(tmp_path, WIND, fmu_path)
     assert cli.main([str(path), "--out", str(tmp_path / "out"), *arguments]) == 2
@@ -273,8 +310,10 @@ def test_out_is_a_folder(tmp_path, fmu_path, capsys):
 def test_a_failure_of_the_run_is_one_line_and_status_1(tmp_path, fmu_path, capsys, monkeypatch):
     """The run itself failing (a cluster gone, a disk full): one line, status 1; the traceback
     with --debug."""
+
     def broken(*args, **kwargs):
         raise RuntimeError("the scheduler\nwent away")
+
     monkeypatch.setattr(engine, "run", broken)
     path = write_study(tmp_path, WIND, fmu_path)
     assert cli.main([str(path), "--serial", "--out", str(tmp_path / "out")]) == 1
@@ -327,13 +366,16 @@ class Terminal:
         pass
 
 
-@pytest.mark.parametrize("stdout_tty, stream_tty, quiet, kind", [
-    (True, True, False, "bar"),
-    (False, True, False, "lines"),    # stdout is a log or a pipe: no bar
-    (True, False, False, "lines"),    # stderr to a file: no bar
-    (True, True, True, "nothing"),
-    (False, False, True, "nothing"),
-])
+@pytest.mark.parametrize(
+    "stdout_tty, stream_tty, quiet, kind",
+    [
+        (True, True, False, "bar"),
+        (False, True, False, "lines"),  # stdout is a log or a pipe: no bar
+        (True, False, False, "lines"),  # stderr to a file: no bar
+        (True, True, True, "nothing"),
+        (False, False, True, "nothing"),
+    ],
+)
 def test_progress_follows_quiet_and_the_terminal(monkeypatch, stdout_tty, stream_tty, quiet, kind):
     monkeypatch.setattr(sys, "stdout", Terminal(stdout_tty))
     stream = Terminal(stream_tty)
@@ -406,23 +448,32 @@ def children(pid):
 def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
     path = write_study(tmp_path, SLOW_STUDY, fmu_path)
     out = tmp_path / "out"
-    first = subprocess.Popen(AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    first = subprocess.Popen(
+        AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     wait_for(lambda: len(stored(out)) >= 2, "two stored scenarios")
     first.send_signal(signal.SIGINT)
     _, err = first.communicate(timeout=60)
     assert first.returncode == 130 and "run again to resume" in err, err
     before = stored(out)
     assert 2 <= len(before) < 6
-    second = subprocess.run(AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
-                            capture_output=True, text=True, timeout=300)
+    second = subprocess.run(
+        AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert second.returncode == 0, second.stderr
     ran = [line for line in second.stderr.splitlines() if line.startswith("[finished")]
     assert len(ran) == 6 - len(before), "only the missing scenarios ran"
     after = stored(out)
     assert len(after) == 6 and all(after[name] == mtime for name, mtime in before.items())
-    third = subprocess.run(AEM_STUDY + [str(path), "--out", str(out), "--serial", "--no-plots"],
-                           capture_output=True, text=True, timeout=60)
+    third = subprocess.run(
+        AEM_STUDY + [str(path), "--out", str(out), "--serial", "--no-plots"], capture_output=True, text=True, timeout=60
+    )
     assert third.returncode == 0 and "[finished" not in third.stderr and stored(out) == after
 
 
@@ -430,8 +481,12 @@ def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
 def test_a_killed_worker_loses_nothing(tmp_path, fmu_path):
     path = write_study(tmp_path, SLOW_STUDY, fmu_path)
     out = tmp_path / "out"
-    study = subprocess.Popen(AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    study = subprocess.Popen(
+        AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     wait_for(lambda: len(stored(out)) >= 1, "a stored scenario")
 
     def busy_worker():
@@ -443,28 +498,35 @@ def test_a_killed_worker_loses_nothing(tmp_path, fmu_path):
         return None
 
     worker = wait_for(busy_worker, "a worker running aem-run")
-    os.kill(worker, signal.SIGKILL)           # the worker process running a scenario, mid-scenario
+    os.kill(worker, signal.SIGKILL)  # the worker process running a scenario, mid-scenario
     stdout, stderr = study.communicate(timeout=300)
     assert study.returncode == 0, stderr
     records = [json.loads(p.read_text()) for p in (out / "scenarios").glob("*.json")]
     assert len(records) == 6 and {r["status"] for r in records} == {"done"}
     first = pd.read_parquet(out / "kpis.parquet")
-    again = subprocess.run(AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
-                           capture_output=True, text=True, timeout=120)
+    again = subprocess.run(
+        AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert again.returncode == 0 and "[finished" not in again.stderr
     second = pd.read_parquet(out / "kpis.parquet")
     np.testing.assert_array_equal(kpi_values(first), kpi_values(second))
     assert len(second) == 6
 
 
-SMALL_WIND = """horizon = "20 min"
+SMALL_WIND = (
+    """horizon = "20 min"
 [parameters]
 nModules = 2000
 [series.wind]
 generator = "wind"
 [axes]
 seed = [3, 4]
-""" + MODES
+"""
+    + MODES
+)
 
 
 def test_the_package_zip_runs_a_scenario_without_this_repository(tmp_path, fmu_path):
@@ -489,8 +551,9 @@ print(json.dumps(worker.run_scenario(*pickle.loads(open({str(job)!r}, "rb").read
         # -S: no site processing, so the editable install's .pth is not read; the dependencies come
         # from site-packages and the package only from the zip, as on a worker that has no install.
         env = {**os.environ, "PYTHONPATH": os.pathsep.join([archive, sysconfig.get_paths()["purelib"]])}
-        done = subprocess.run([sys.executable, "-S", "-c", code], cwd=tmp_path, capture_output=True, text=True,
-                              timeout=120, env=env)
+        done = subprocess.run(
+            [sys.executable, "-S", "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120, env=env
+        )
         assert done.returncode == 0, done.stderr
         assert json.loads(done.stdout)["kpis"] == expected["kpis"]
     finally:
@@ -504,16 +567,44 @@ def test_an_existing_cluster_runs_the_study_as_the_serial_run(tmp_path, fmu_path
     dask = str(BIN / "dask")
     address_file = tmp_path / "scheduler.json"
     quiet = dict(stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path)
-    scheduler = subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                                  "--scheduler-file", str(address_file)], **quiet)
+    scheduler = subprocess.Popen(
+        [
+            dask,
+            "scheduler",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            "0",
+            "--no-dashboard",
+            "--scheduler-file",
+            str(address_file),
+        ],
+        **quiet,
+    )
     worker = None
     try:
         wait_for(address_file.is_file, "the scheduler's address", timeout=60)
-        worker = subprocess.Popen([dask, "worker", "--scheduler-file", str(address_file), "--nworkers", "2",
-                                   "--nthreads", "1", "--no-dashboard"], **quiet)
+        worker = subprocess.Popen(
+            [
+                dask,
+                "worker",
+                "--scheduler-file",
+                str(address_file),
+                "--nworkers",
+                "2",
+                "--nthreads",
+                "1",
+                "--no-dashboard",
+            ],
+            **quiet,
+        )
         address = json.loads(address_file.read_text())["address"]
-        done = subprocess.run(AEM_STUDY + [str(path), "--out", str(tmp_path / "cluster"), "--scheduler", address,
-                                           "--no-plots"], capture_output=True, text=True, timeout=300)
+        done = subprocess.run(
+            AEM_STUDY + [str(path), "--out", str(tmp_path / "cluster"), "--scheduler", address, "--no-plots"],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
         assert done.returncode == 0, done.stderr
     finally:
         for process in (worker, scheduler):
@@ -532,11 +623,15 @@ def test_module_parameter_files_are_an_axis_shipped_with_the_scenario(tmp_path, 
     """A moduleParameterFile axis: each file goes to the workers by its hash (no shared file
     system); the modules take its gains round robin: m = Σ_k c K_k u t."""
     for name, gains in (("two.json", [0.50, 0.56]), ("one.json", [0.50])):
-        modules = [{"module": f"M{k}", "parameters": {"gain": {"value": g, "unit": "A/%", "source": "identified"}}}
-                   for k, g in enumerate(gains)]
+        modules = [
+            {"module": f"M{k}", "parameters": {"gain": {"value": g, "unit": "A/%", "source": "identified"}}}
+            for k, g in enumerate(gains)
+        ]
         (tmp_path / name).write_text(json.dumps({"generator": "test", "modules": modules}))
     (tmp_path / "sp.csv").write_text("time [s],setpoint [%]\n0,80\n3600,80\n")
-    path = write_study(tmp_path, """horizon = "1 h"
+    path = write_study(
+        tmp_path,
+        """horizon = "1 h"
 [parameters]
 nModules = 4
 [series.sp]
@@ -544,7 +639,9 @@ file = "sp.csv"
 column = "setpoint [%]"
 [axes]
 moduleParameterFile = ["two.json", "one.json"]
-""", fmu_path)
+""",
+        fmu_path,
+    )
     study, frame = run_study(path, tmp_path / "out", serial=True)
     assert frame["moduleParameterFile"].tolist() == ["two.json", "one.json"]
     assert study.scenarios()[0].definition["parameters"]["moduleParameterFile"].startswith("file:sha256:")

@@ -1,6 +1,7 @@
 """study/report.py on synthetic study tables whose KPIs follow simple formulas, so the ranges,
 best cases, their caveats and seed means the report states are computed here independently;
 the plots' kind (bars for categories, lines for a scale) read from the matplotlib figures."""
+
 import hashlib
 import re
 
@@ -42,9 +43,15 @@ def key(*values):
 def row(axes, kpis, failed=False, scenario=None):
     """One table row: axis values, KPIs (NaN when failed), run columns and labels."""
     kpis = {k: np.nan for k in KPIS} if failed else kpis
-    return {**axes, **kpis, "run time [s]": 12.5 + len(str(axes)) / 7, "worker": "w1",
-            "scenario": scenario or key(*axes.values()),
-            "status": "failed" if failed else "done", "message": MESSAGE if failed else ""}
+    return {
+        **axes,
+        **kpis,
+        "run time [s]": 12.5 + len(str(axes)) / 7,
+        "worker": "w1",
+        "scenario": scenario or key(*axes.values()),
+        "status": "failed" if failed else "done",
+        "message": MESSAGE if failed else "",
+    }
 
 
 def crossed_table():
@@ -56,11 +63,16 @@ def crossed_table():
             for seed in SEEDS:
                 h2 = hydrogen(mode, size, seed)
                 kpis = {k: (i + 1) * size + seed / 3 for i, k in enumerate(KPIS)}
-                kpis.update({"hydrogen [kg]": h2, "wind not absorbed [MWh]": wind_lost(mode, size, seed),
-                             "grid import [MWh]": -0.0,        # the sign bit must survive
-                             "specific energy [kWh/kg]": 1e-300 * seed, ALL_NAN: np.nan})
-                axes = {"series": "wind2019", "mode": mode, "hub size [%]": size, "seed": seed,
-                        "hysteresis [%]": 5.0}
+                kpis.update(
+                    {
+                        "hydrogen [kg]": h2,
+                        "wind not absorbed [MWh]": wind_lost(mode, size, seed),
+                        "grid import [MWh]": -0.0,  # the sign bit must survive
+                        "specific energy [kWh/kg]": 1e-300 * seed,
+                        ALL_NAN: np.nan,
+                    }
+                )
+                axes = {"series": "wind2019", "mode": mode, "hub size [%]": size, "seed": seed, "hysteresis [%]": 5.0}
                 rows.append(row(axes, kpis, failed=(mode, size, seed) == FAILED))
     rows[4]["scenario"] = "000000000000e123"
     table = pd.DataFrame(rows).sample(frac=1.0, random_state=7).reset_index(drop=True)
@@ -127,8 +139,12 @@ def test_tables_read_back_bit_for_bit_in_axis_order(crossed):
     plain = pd.read_csv(out / "kpis.csv", float_precision="round_trip")
     for k in KPIS:
         np.testing.assert_array_equal(plain[k].to_numpy(), want[k].to_numpy())
-    assert (out / "kpis.csv").read_text().splitlines()[0].startswith(
-        "series,mode,hub size [%],seed,hysteresis [%],modules [1],")
+    assert (
+        (out / "kpis.csv")
+        .read_text()
+        .splitlines()[0]
+        .startswith("series,mode,hub size [%],seed,hysteresis [%],modules [1],")
+    )
 
 
 def test_written_files_and_plots(crossed):
@@ -139,10 +155,22 @@ def test_written_files_and_plots(crossed):
     plots = {name for name in written if name.startswith("plots/")}
     # grid import is -0.0 in every scenario (constant: stated, not plotted); rms tracking error
     # has no value at all
-    assert plots == {f"plots/{s}.png" for s in (
-        "modules_1", "hub_rated_power_MW", "horizon_h", "reference_energy_MWh", "energy_drawn_MWh",
-        "hydrogen_kg", "specific_energy_kWh_per_kg", "wind_not_absorbed_MWh",
-        "full-load_hours_h", "starts_per_module_1", "running_hours_per_module_h")}
+    assert plots == {
+        f"plots/{s}.png"
+        for s in (
+            "modules_1",
+            "hub_rated_power_MW",
+            "horizon_h",
+            "reference_energy_MWh",
+            "energy_drawn_MWh",
+            "hydrogen_kg",
+            "specific_energy_kWh_per_kg",
+            "wind_not_absorbed_MWh",
+            "full-load_hours_h",
+            "starts_per_module_1",
+            "running_hours_per_module_h",
+        )
+    }
     for name in plots:
         assert_png(out / name)
 
@@ -236,7 +264,7 @@ def test_only_categorical_axes(tmp_path):
         for d, dispatch in enumerate(["merit", "roundRobin"]):
             for s, series in enumerate(["NA", "wind2020"]):
                 kpis = {k: 10.0 * m + d + 0.5 * s + i for i, k in enumerate(KPIS)}
-                kpis["wind not absorbed [MWh]"] = np.nan   # a setpoint-driven study
+                kpis["wind not absorbed [MWh]"] = np.nan  # a setpoint-driven study
                 rows.append(row({"mode": mode, "dispatch": dispatch, "series": series}, kpis))
     table = pd.DataFrame(rows)
     written = write_report(table, axes, tmp_path, "dispatch rules")
@@ -261,9 +289,14 @@ def test_only_categorical_axes(tmp_path):
 
 def test_many_lines_split_into_subplots(tmp_path):
     """2 modes x 7 hysteresis values = 14 lines > 12: one panel per mode, wider than 7 in."""
-    rows = [row({"mode": mode, "hysteresis [%]": float(h), "hub size [%]": size},
-                {k: size * (1 + h / 10) * f for k in KPIS})
-            for mode, f in MODES.items() for h in range(7) for size in SIZES]
+    rows = [
+        row(
+            {"mode": mode, "hysteresis [%]": float(h), "hub size [%]": size}, {k: size * (1 + h / 10) * f for k in KPIS}
+        )
+        for mode, f in MODES.items()
+        for h in range(7)
+        for size in SIZES
+    ]
     axes = ["mode", "hub size [%]", "hysteresis [%]"]
     table = pd.DataFrame(rows)
     assert layout(table, axes).lines == ["mode", "hysteresis [%]"]
@@ -273,8 +306,7 @@ def test_many_lines_split_into_subplots(tmp_path):
 
 
 def test_all_failed(tmp_path):
-    table = pd.DataFrame([row({"mode": m, "seed": s}, {}, failed=True)
-                          for m in MODES for s in SEEDS])
+    table = pd.DataFrame([row({"mode": m, "seed": s}, {}, failed=True) for m in MODES for s in SEEDS])
     written = write_report(table, ["mode", "seed"], tmp_path, "broken")
     assert not any(name.startswith("plots/") for name in written)
     text = written["summary.txt"].read_text()
@@ -286,7 +318,7 @@ def test_all_failed(tmp_path):
 
 DISPATCH = ["equal", "sequential"]
 HUB_SIZES = [40.0, 100.0]
-HUB_FAILED = ("equal", 100.0, 2)   # the best configuration has a failed seed: its caveats are seed 1's
+HUB_FAILED = ("equal", 100.0, 2)  # the best configuration has a failed seed: its caveats are seed 1's
 
 
 def offered(seed):
@@ -324,13 +356,18 @@ def hub_table():
         for size in HUB_SIZES:
             for seed in SEEDS[:2]:
                 kpis = {k: np.nan for k in KPIS}
-                kpis.update({
-                    "modules [1]": modules(size), "horizon [h]": 8760.0,
-                    "reference energy [MWh]": offered(seed), "energy drawn [MWh]": drawn(dispatch, size, seed),
-                    "hydrogen [kg]": 20.0 * drawn(dispatch, size, seed),
-                    "wind not absorbed [MWh]": lost(dispatch, size, seed),
-                    "grid import [MWh]": grid(dispatch, size, seed),
-                    "starts per module [1]": starts(dispatch, size, seed)})
+                kpis.update(
+                    {
+                        "modules [1]": modules(size),
+                        "horizon [h]": 8760.0,
+                        "reference energy [MWh]": offered(seed),
+                        "energy drawn [MWh]": drawn(dispatch, size, seed),
+                        "hydrogen [kg]": 20.0 * drawn(dispatch, size, seed),
+                        "wind not absorbed [MWh]": lost(dispatch, size, seed),
+                        "grid import [MWh]": grid(dispatch, size, seed),
+                        "starts per module [1]": starts(dispatch, size, seed),
+                    }
+                )
                 axes = {"dispatch": dispatch, "hub size [%]": size, "seed": seed}
                 rows.append(row(axes, kpis, failed=(dispatch, size, seed) == HUB_FAILED))
     return pd.DataFrame(rows)
@@ -341,7 +378,7 @@ def caveat_block(text, best):
     lines = text.splitlines()
     i = next(i for i, line in enumerate(lines) if line.strip().startswith(best))
     block = {}
-    for line in lines[i + 1:]:
+    for line in lines[i + 1 :]:
         if not line.startswith("    "):
             break
         name, rest = line.strip().split(":", 1)
@@ -355,27 +392,40 @@ def expected_caveats(dispatch, size):
 
     def mean(f):
         return np.mean([f(d) for d in seeds])
+
     g, e = mean(lambda d: grid(dispatch, size, d)), mean(lambda d: drawn(dispatch, size, d))
     w, o = mean(lambda d: lost(dispatch, size, d)), mean(offered)
     s = mean(lambda d: starts(dispatch, size, d))
-    return {"grid import": [g, 100 * g / e, e], "wind not absorbed": [w, 100 * w / o, o],
-            "starts": [s, mean(lambda d: starts(dispatch, size, d) * modules(size))]}
+    return {
+        "grid import": [g, 100 * g / e, e],
+        "wind not absorbed": [w, 100 * w / o, o],
+        "starts": [s, mean(lambda d: starts(dispatch, size, d) * modules(size))],
+    }
 
 
 def test_best_cases_carry_grid_import_wind_not_absorbed_and_starts(tmp_path):
     """The most hydrogen comes from the equal hub at 100 %, a quarter of whose energy is grid
     power; the least wind lost from the sequential hub at 100 %, with thousands of starts."""
     # the caveats are read from these KPI columns, as aem-run writes them (kpis.KPIS)
-    assert {"grid import [MWh]", "energy drawn [MWh]", "wind not absorbed [MWh]", "reference energy [MWh]",
-            "starts per module [1]", "modules [1]"} <= set(KPIS)
+    assert {
+        "grid import [MWh]",
+        "energy drawn [MWh]",
+        "wind not absorbed [MWh]",
+        "reference energy [MWh]",
+        "starts per module [1]",
+        "modules [1]",
+    } <= set(KPIS)
     table = hub_table()
     written = write_report(table, ["dispatch", "hub size [%]", "seed"], tmp_path, "hub sizing", plots=False)
     text = written["summary.txt"].read_text()
     assert summary_line(text, "largest hydrogen [kg]").endswith("kg at hub size [%]=100, dispatch=equal")
     assert summary_line(text, "smallest wind not absorbed [MWh]").endswith(
-        "MWh at hub size [%]=100, dispatch=sequential")
-    for best, config in (("largest hydrogen [kg]", ("equal", 100.0)),
-                         ("smallest wind not absorbed [MWh]", ("sequential", 100.0))):
+        "MWh at hub size [%]=100, dispatch=sequential"
+    )
+    for best, config in (
+        ("largest hydrogen [kg]", ("equal", 100.0)),
+        ("smallest wind not absorbed [MWh]", ("sequential", 100.0)),
+    ):
         block = caveat_block(text, best)
         assert list(block) == ["grid import", "wind not absorbed", "starts"], (best, block)
         want = expected_caveats(*config)
@@ -401,15 +451,22 @@ def test_the_constant_horizon_is_stated_not_plotted(tmp_path):
     assert block == ["  horizon [h] = 8760 h"]
     plots = {name for name in written if name.startswith("plots/")}
     assert "plots/horizon_h.png" not in plots and "plots/modules_1.png" in plots  # modules vary with size
-    assert plots == {"plots/modules_1.png", "plots/reference_energy_MWh.png", "plots/energy_drawn_MWh.png",
-                     "plots/hydrogen_kg.png", "plots/wind_not_absorbed_MWh.png", "plots/grid_import_MWh.png",
-                     "plots/starts_per_module_1.png"}
+    assert plots == {
+        "plots/modules_1.png",
+        "plots/reference_energy_MWh.png",
+        "plots/energy_drawn_MWh.png",
+        "plots/hydrogen_kg.png",
+        "plots/wind_not_absorbed_MWh.png",
+        "plots/grid_import_MWh.png",
+        "plots/starts_per_module_1.png",
+    }
 
 
 def drawn_lines(ax):
     """The Line2D of `ax` that join points with a visible line (markers and caps alone don't)."""
-    return [line for line in ax.lines
-            if line.get_linestyle() not in ("None", "none", "", " ") and len(line.get_xdata()) > 1]
+    return [
+        line for line in ax.lines if line.get_linestyle() not in ("None", "none", "", " ") and len(line.get_xdata()) > 1
+    ]
 
 
 def bars(ax):
@@ -420,8 +477,11 @@ def test_categorical_axes_are_grouped_bars_never_sloping_lines():
     """dispatch x seed: x is dispatch (3 categories), averaged over the seeds: 3 bars, one group,
     their seed spread as error bars, and no line from one dispatch to the next."""
     dispatches = ["equal", "equal, standby", "sequential"]
-    rows = [row({"dispatch": d, "seed": s}, {k: 1000.0 * (i + 1) + 100 * j + s for i, k in enumerate(KPIS)})
-            for j, d in enumerate(dispatches) for s in SEEDS]
+    rows = [
+        row({"dispatch": d, "seed": s}, {k: 1000.0 * (i + 1) + 100 * j + s for i, k in enumerate(KPIS)})
+        for j, d in enumerate(dispatches)
+        for s in SEEDS
+    ]
     table = pd.DataFrame(rows)
     lay = layout(table, ["dispatch", "seed"])
     assert (lay.x, lay.lines, lay.replicates, plot_kind(lay)) == ("dispatch", [], ["seed"], "bars")
@@ -440,8 +500,13 @@ def test_categorical_axes_are_grouped_bars_never_sloping_lines():
 def test_two_categorical_axes_give_one_bar_group_per_line_axis_value(tmp_path):
     """mode x dispatch (the categorical study above): a bar per dispatch at each mode."""
     axes = ["mode", "dispatch"]
-    table = pd.DataFrame([row({"mode": m, "dispatch": d}, {k: 1.0 + i + 2 * a + b for i, k in enumerate(KPIS)})
-                          for a, m in enumerate(["sequential", "equal"]) for b, d in enumerate(["merit", "roundRobin"])])
+    table = pd.DataFrame(
+        [
+            row({"mode": m, "dispatch": d}, {k: 1.0 + i + 2 * a + b for i, k in enumerate(KPIS)})
+            for a, m in enumerate(["sequential", "equal"])
+            for b, d in enumerate(["merit", "roundRobin"])
+        ]
+    )
     lay = layout(table, axes)
     assert plot_kind(lay) == "bars"
     fig = figure(table, lay, "hydrogen [kg]", "t")

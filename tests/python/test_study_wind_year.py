@@ -2,6 +2,7 @@
 chunked Kaimal turbulence of aem_electrolyser.wind.farm). Expectations come from the model's
 definitions (the Weibull law, the AR(1) process, c(t), the Kaimal spectrum and the rotor
 filter), with tolerances of a few standard errors of the estimate."""
+
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -13,7 +14,14 @@ from scipy.special import gamma, ndtri
 
 ROOT = Path(__file__).resolve().parents[2]
 from aem_electrolyser.wind.year import (  # noqa: E402
-    DAY, FARM_RATING, HOUR, WindClimate, farm_power_year, hourly_mean_wind, wind_speeds)
+    DAY,
+    FARM_RATING,
+    HOUR,
+    WindClimate,
+    farm_power_year,
+    hourly_mean_wind,
+    wind_speeds,
+)
 from aem_electrolyser.wind.farm import N_TURBINES, Site, Turbine, kaimal_spectrum, power_curve
 
 CLIMATE = WindClimate()
@@ -33,6 +41,7 @@ def hourly_averages(x, dt):
 
 
 # --- reproducibility, length, range ---------------------------------------------------------
+
 
 def test_same_seed_is_bit_identical_and_another_seed_differs():
     a = farm_power_year(DAY, seed=5)
@@ -78,6 +87,7 @@ def test_invalid_layouts_are_refused():
 
 # --- hourly means: Weibull marginal, AR(1) persistence, seasonal and diurnal cycles -----------
 
+
 def test_hourly_marginal_is_the_weibull_law():
     v = hourly_mean_wind(CENTURY, seed=11, climate=FLAT)
     k, c = FLAT.weibull_shape, weibull_scale(FLAT)
@@ -94,7 +104,7 @@ def test_hourly_marginal_is_the_weibull_law():
 def test_underlying_gaussian_process_has_the_ar1_persistence():
     """z_h = Φ⁻¹(F_Weibull(V_h)) recovers the AR(1) process: corr(z_h, z_h+l) = φ^l."""
     v = hourly_mean_wind(CENTURY, seed=12, climate=FLAT)
-    z = ndtri(-np.expm1(-(v / weibull_scale(FLAT)) ** FLAT.weibull_shape))
+    z = ndtri(-np.expm1(-((v / weibull_scale(FLAT)) ** FLAT.weibull_shape)))
     phi = FLAT.persistence
     assert z.mean() == pytest.approx(0.0, abs=0.05) and z.std() == pytest.approx(1.0, abs=0.05)
     for lag, tol in [(1, 0.003), (24, 0.03)]:  # standard errors ~0.0003 and ~0.01
@@ -109,9 +119,9 @@ def test_seasonal_and_diurnal_cycles_have_their_amplitudes_and_peaks():
     ws, wd = 2 * np.pi * day / 365.25, 2 * np.pi * day
     x = np.column_stack([np.ones_like(day), np.cos(ws), np.sin(ws), np.cos(wd), np.sin(wd)])
     b = np.linalg.lstsq(x, v / CLIMATE.mean_speed, rcond=None)[0]
-    assert np.hypot(b[1], b[2]) == pytest.approx(CLIMATE.seasonal_amplitude, abs=0.03)   # SE ~0.009
+    assert np.hypot(b[1], b[2]) == pytest.approx(CLIMATE.seasonal_amplitude, abs=0.03)  # SE ~0.009
     assert np.arctan2(b[2], b[1]) % (2 * np.pi) * 365.25 / (2 * np.pi) == pytest.approx(CLIMATE.peak_day, abs=10)
-    assert np.hypot(b[3], b[4]) == pytest.approx(CLIMATE.diurnal_amplitude, abs=0.004)   # SE ~0.001
+    assert np.hypot(b[3], b[4]) == pytest.approx(CLIMATE.diurnal_amplitude, abs=0.004)  # SE ~0.001
     assert np.arctan2(b[4], b[3]) % (2 * np.pi) * 24 / (2 * np.pi) == pytest.approx(CLIMATE.peak_hour, abs=1.0)
     # and in plain words: winter (Dec-Feb) is windier than summer (Jun-Aug) by the ratio of
     # their mean seasonal factors, about (1 + 0.9 a_s)/(1 - 0.9 a_s) = 1.39
@@ -123,6 +133,7 @@ def test_seasonal_and_diurnal_cycles_have_their_amplitudes_and_peaks():
 
 
 # --- 1 s speeds: turbulence level and record boundaries --------------------------------------
+
 
 def within_hour_ratio(speeds, hourly, climate):
     """Mean over hours and turbines of std(detrended 1 s speed)/(TI V_h) [1]."""
@@ -159,14 +170,17 @@ def boundary_jump_ratio(climate, days=10, seed=31, half=30):
     """Mean over windows of the largest normalised 1 s change |Δv|/(TI V) of all turbines in
     ±half s around record starts and blend ends, over that in windows mid-record [1]."""
     speeds = wind_speeds(days * DAY, seed=seed, climate=climate)
-    mean = np.interp(np.arange(speeds.shape[1]) + 0.5, (np.arange(days * 24 + 1) + 0.5) * HOUR,
-                     hourly_mean_wind(days * 24 + 1, seed, climate))
+    mean = np.interp(
+        np.arange(speeds.shape[1]) + 0.5,
+        (np.arange(days * 24 + 1) + 0.5) * HOUR,
+        hourly_mean_wind(days * 24 + 1, seed, climate),
+    )
     jump = np.abs(np.diff(speeds, axis=1)) / (climate.turbulence_intensity * mean[1:])
     m, o = int(climate.chunk), int(climate.overlap)
     starts = np.arange(m, speeds.shape[1] - m, m)
 
     def largest(centres):
-        return np.mean([jump[:, c - half:c + half].max() for c in centres])
+        return np.mean([jump[:, c - half : c + half].max() for c in centres])
 
     at_edges = largest(np.concatenate([starts, starts + o]) if o else starts)
     return at_edges / largest(np.concatenate([starts + m // 3, starts + 2 * m // 3]))
@@ -179,6 +193,7 @@ def test_no_jump_at_record_boundaries():
 
 
 # --- whole runs ------------------------------------------------------------------------------
+
 
 def test_power_follows_the_hourly_wind_through_the_power_curve():
     """Turbulence averages out in hourly means: farm power ≈ N·P(V_h) hour by hour."""

@@ -56,6 +56,7 @@ and `--modules 250000 --capacity 120` a hub ten times larger (469 MW of L2's 176
 <out>/generator_trip.csv (every TOPS step), generator_trip_table.csv and .png before the table; the
 FMU's and TOPS's messages go to stderr.
 """
+
 import contextlib
 import csv
 import sys
@@ -69,21 +70,32 @@ from aem_electrolyser.examples.wind_hub import module_rating
 from aem_electrolyser.extras import require
 from aem_electrolyser import cli
 
-F_N = 50.0            # Hz
-TRIP_GEN = "G1"       # split into two parallel units, one of which trips
-HUB_LOAD = "L2"       # k2a's load at B9, next to B12: the hub's power is taken off it
-VSC_T_PLL = 0.02      # s: the hub VSC's angle filter (grid_cosim: 0.1 s); see the docstring
-ROCOF_WINDOW = 0.5    # s
+F_N = 50.0  # Hz
+TRIP_GEN = "G1"  # split into two parallel units, one of which trips
+HUB_LOAD = "L2"  # k2a's load at B9, next to B12: the hub's power is taken off it
+VSC_T_PLL = 0.02  # s: the hub VSC's angle filter (grid_cosim: 0.1 s); see the docstring
+ROCOF_WINDOW = 0.5  # s
 FIRST_DIP_WINDOW = 5.0  # s after the trip
-T_COMPARE = 7.5       # s after the trip: hub power of the plain and compensated runs
+T_COMPARE = 7.5  # s after the trip: hub power of the plain and compensated runs
 RUNS = {  # name: (offers FCR-D up, reserveCompensation)
     "no reserve": (False, False),
     "FCR-D up": (True, False),
     "FCR-D up, compensated": (True, True),
 }
-TABLE_HEADER = ["run", "FCR-D up capacity [MW]", "first dip [Hz]", "first dip at [s]", "nadir [Hz]",
-                "max RoCoF [Hz/s]", "settling time [s]", "final frequency [Hz]", "hub power before [MW]",
-                "hub power at trip + 7.5 s [MW]", "hub power at end [MW]", "reserveRequest at end [MW]"]
+TABLE_HEADER = [
+    "run",
+    "FCR-D up capacity [MW]",
+    "first dip [Hz]",
+    "first dip at [s]",
+    "nadir [Hz]",
+    "max RoCoF [Hz/s]",
+    "settling time [s]",
+    "final frequency [Hz]",
+    "hub power before [MW]",
+    "hub power at trip + 7.5 s [MW]",
+    "hub power at end [MW]",
+    "reserveRequest at end [MW]",
+]
 
 
 def power_system(p_hub_mw, trip_gen=TRIP_GEN):
@@ -92,13 +104,12 @@ def power_system(p_hub_mw, trip_gen=TRIP_GEN):
     model = grid_power_system(0.0, p_hub_mw)
     header, *rows = model["vsc"]["VSC"]
     t_pll = header.index("T_pll")
-    model["vsc"]["VSC"] = [header] + [r[:t_pll] + [VSC_T_PLL] + r[t_pll + 1:] for r in rows if r[0] != "WIND"]
+    model["vsc"]["VSC"] = [header] + [r[:t_pll] + [VSC_T_PLL] + r[t_pll + 1 :] for r in rows if r[0] != "WIND"]
     header, *loads = model["loads"]
     p = header.index("P")
     if not p_hub_mw < next(ld[p] for ld in loads if ld[0] == HUB_LOAD):
         raise ValueError(f"a hub of {p_hub_mw:.0f} MW does not fit into load {HUB_LOAD}")
-    model["loads"] = [header] + [ld[:p] + [ld[p] - p_hub_mw] + ld[p + 1:] if ld[0] == HUB_LOAD else ld
-                                 for ld in loads]
+    model["loads"] = [header] + [ld[:p] + [ld[p] - p_hub_mw] + ld[p + 1 :] if ld[0] == HUB_LOAD else ld for ld in loads]
     header, *gens = model["generators"]["GEN"]
     s_n, p = header.index("S_n"), header.index("P")
     split = []
@@ -120,7 +131,7 @@ def trip_one_unit(ps, x, v, gen_name=TRIP_GEN):
     gen = ps.gen["GEN"]
     k = list(gen.par["name"]).index(gen_name)
     p_unit = gen.P_e(x, v)[k]
-    y, _ = gen.dyn_const_adm()                                # N_par units' admittances, system pu
+    y, _ = gen.dyn_const_adm()  # N_par units' admittances, system pu
     b = gen.bus_idx_red["terminal"][k]
     n = ps.y_bus_red_mod.shape[0]
     ps.y_bus_red_mod = ps.y_bus_red_mod + sp.csr_matrix(([-y[k] / gen.par["N_par"][k]], ([b], [b])), shape=(n, n))
@@ -139,22 +150,43 @@ def hub_rating(fmu, n_modules, hub_factory=HubFMU):
     return n_modules * low, n_modules * high
 
 
-def run_case(fmu, duration, p_ref, capacity, compensation, trip_time=2.0, exchange=0.1, dt=5e-3,
-             n_modules=N_MODULES, hub_factory=HubFMU, name="hub", bar=None):
+def run_case(
+    fmu,
+    duration,
+    p_ref,
+    capacity,
+    compensation,
+    trip_time=2.0,
+    exchange=0.1,
+    dt=5e-3,
+    n_modules=N_MODULES,
+    hub_factory=HubFMU,
+    name="hub",
+    bar=None,
+):
     """One co-simulation; returns a dict of arrays sampled at every TOPS step (after the step);
     `bar` (tqdm) advances by the simulated seconds."""
     import tops.dynamic as dps
     import tops.solvers as dps_sol
 
-    hub = hub_factory(fmu, instance_name=name, nModules=n_modules, powerInput=True, dispatch=1, belowMinimum=0,
-                      fcrDUpCapacity=capacity, reserveCompensation=compensation)
+    hub = hub_factory(
+        fmu,
+        instance_name=name,
+        nModules=n_modules,
+        powerInput=True,
+        dispatch=1,
+        belowMinimum=0,
+        fcrDUpCapacity=capacity,
+        reserveCompensation=compensation,
+    )
     try:
         hub.initialize(powerReference=p_ref, frequency=F_N)
         p_hub = hub.get("hubPower")
         ps = dps.PowerSystemModel(model=power_system(p_hub / 1e6))
         ps.init_dyn_sim()
-        sol = dps_sol.ModifiedEulerDAE(ps.state_derivatives, ps.solve_algebraic, 0, ps.x_0.copy(), duration,
-                                       max_step=dt)
+        sol = dps_sol.ModifiedEulerDAE(
+            ps.state_derivatives, ps.solve_algebraic, 0, ps.x_0.copy(), duration, max_step=dt
+        )
         vsc, pll, gen = ps.vsc["VSC"], ps.pll["PLL1"], ps.gen["GEN"]
         steps_per_exchange = int(round(exchange / dt))
         loads, lines, trafos = ps.loads["Load"], ps.lines["Line"], ps.trafos["Trafo"]
@@ -164,7 +196,7 @@ def run_case(fmu, duration, p_ref, capacity, compensation, trip_time=2.0, exchan
         while sol.t < duration - dt / 2:
             if k % steps_per_exchange == 0:
                 f_hub = F_N * (1.0 + pll.freq_est(sol.x, sol.v)[0])  # the PLL at B12, held over the interval
-                p_hub = hub.get("hubPower")                         # the hub's power at t, held likewise
+                p_hub = hub.get("hubPower")  # the hub's power at t, held likewise
                 vsc.set_input("P_setp", -p_hub / 1e6, 0)
                 hub.set(frequency=f_hub)
                 request = hub.get("reserveRequest")
@@ -173,18 +205,18 @@ def run_case(fmu, duration, p_ref, capacity, compensation, trip_time=2.0, exchan
                     bar.update(exchange)
             if tripped_mw is None and sol.t >= trip_time - dt / 2:
                 tripped_mw = trip_one_unit(ps, sol.x, sol.v)
-                sol.v[:] = ps.solve_algebraic(sol.t, sol.x)        # the network right after the trip
+                sol.v[:] = ps.solve_algebraic(sol.t, sol.x)  # the network right after the trip
             sol.step()
             k += 1
             x, v = sol.y, sol.v
-            h = gen.par["H"] * gen.par["S_n"] * gen.par["N_par"]   # the units still connected
+            h = gen.par["H"] * gen.par["S_n"] * gen.par["N_par"]  # the units still connected
             rec["time"].append(sol.t)
             rec["f"].append(F_N * (1.0 + pll.freq_est(x, v)[0]))
             rec["f_coi"].append(F_N * (1.0 + np.dot(h, gen.speed(x, v)) / h.sum()))
             rec["f_hub"].append(f_hub)
             rec["request"].append(request)
             rec["hub"].append(p_hub)
-            b, i_vsc = vsc.current_injections(x, v)                # the VSC's current into the network
+            b, i_vsc = vsc.current_injections(x, v)  # the VSC's current into the network
             rec["vsc_hub"].append(-(v[b[0]] * np.conj(i_vsc[0])).real * ps.s_n * 1e6)
             rec["gen"].append(np.dot(gen.P_e(x, v), gen.par["N_par"]) * 1e6)
             rec["loads"].append(loads.P(x, v).sum() * 1e6)
@@ -192,8 +224,13 @@ def run_case(fmu, duration, p_ref, capacity, compensation, trip_time=2.0, exchan
     finally:
         hub.close()
     out = {k: np.array(val) for k, val in rec.items()}
-    out.update(p_ref=p_ref, capacity=capacity, compensation=compensation, trip_time=trip_time,
-               tripped=tripped_mw * 1e6 if tripped_mw is not None else 0.0)
+    out.update(
+        p_ref=p_ref,
+        capacity=capacity,
+        compensation=compensation,
+        trip_time=trip_time,
+        tripped=tripped_mw * 1e6 if tripped_mw is not None else 0.0,
+    )
     return out
 
 
@@ -213,17 +250,30 @@ def metrics(o, band=0.010, window=ROCOF_WINDOW):
         settle = t[outside[-1] + 1] - t0 if outside[-1] + 1 < len(t) else np.nan
     at = min(np.searchsorted(t, t0 + T_COMPARE + (t[1] - t[0]) / 2), len(t) - 1)  # holds the power at t0 + 7.5 s
     return {
-        "first dip [Hz]": f[i_dip], "first dip at [s]": t[i_dip] - t0, "nadir [Hz]": f.min(),
-        "max RoCoF [Hz/s]": rocof, "settling time [s]": settle, "final frequency [Hz]": final,
-        "hub power before [MW]": o["hub"][0] / 1e6, "hub power at trip + 7.5 s [MW]": o["hub"][at] / 1e6,
-        "hub power at end [MW]": o["hub"][-1] / 1e6, "reserveRequest at end [MW]": o["request"][-1] / 1e6,
+        "first dip [Hz]": f[i_dip],
+        "first dip at [s]": t[i_dip] - t0,
+        "nadir [Hz]": f.min(),
+        "max RoCoF [Hz/s]": rocof,
+        "settling time [s]": settle,
+        "final frequency [Hz]": final,
+        "hub power before [MW]": o["hub"][0] / 1e6,
+        "hub power at trip + 7.5 s [MW]": o["hub"][at] / 1e6,
+        "hub power at end [MW]": o["hub"][-1] / 1e6,
+        "reserveRequest at end [MW]": o["request"][-1] / 1e6,
     }
 
 
-COLUMNS = [("frequency at B12 [Hz]", "f"), ("centre-of-inertia frequency [Hz]", "f_coi"),
-           ("frequency given to the hub [Hz]", "f_hub"), ("reserveRequest [W]", "request"),
-           ("hub power (FMU) [W]", "hub"), ("hub power drawn by its VSC [W]", "vsc_hub"),
-           ("generators' electric power [W]", "gen"), ("loads' power [W]", "loads"), ("network losses [W]", "losses")]
+COLUMNS = [
+    ("frequency at B12 [Hz]", "f"),
+    ("centre-of-inertia frequency [Hz]", "f_coi"),
+    ("frequency given to the hub [Hz]", "f_hub"),
+    ("reserveRequest [W]", "request"),
+    ("hub power (FMU) [W]", "hub"),
+    ("hub power drawn by its VSC [W]", "vsc_hub"),
+    ("generators' electric power [W]", "gen"),
+    ("loads' power [W]", "loads"),
+    ("network losses [W]", "losses"),
+]
 
 
 def write_csvs(out, cases, table):
@@ -238,12 +288,17 @@ def write_csvs(out, cases, table):
     with open(out.parent / f"{out.name}_table.csv", "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(TABLE_HEADER)
-        w.writerows([[name, f"{cases[name]['capacity'] / 1e6:.10g}"] + [f"{row[h]:.10g}" for h in TABLE_HEADER[2:]]
-                     for name, row in table.items()])
+        w.writerows(
+            [
+                [name, f"{cases[name]['capacity'] / 1e6:.10g}"] + [f"{row[h]:.10g}" for h in TABLE_HEADER[2:]]
+                for name, row in table.items()
+            ]
+        )
 
 
 def plot(path, cases, n_modules):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -256,11 +311,23 @@ def plot(path, cases, n_modules):
         ax[1].plot(t, 1e3 * (o["f"] - base["f"]), color=colors[name], label=name)
         ax[2].plot(t, o["hub"] / 1e6, color=colors[name], label=name)
         ax[3].plot(t, o["request"] / 1e6, color=colors[name], label=name)
-    ax[0].plot(base["time"] - base["trip_time"], base["f_coi"], color="k", ls=":", lw=0.8,
-               label="no reserve, centre of inertia")
+    ax[0].plot(
+        base["time"] - base["trip_time"],
+        base["f_coi"],
+        color="k",
+        ls=":",
+        lw=0.8,
+        label="no reserve, centre of inertia",
+    )
     plain = cases["FCR-D up"]
-    ax[2].plot(plain["time"] - plain["trip_time"], (plain["p_ref"] + plain["request"]) / 1e6, color="k", ls=":",
-               lw=0.8, label="asked: powerReference + reserveRequest")
+    ax[2].plot(
+        plain["time"] - plain["trip_time"],
+        (plain["p_ref"] + plain["request"]) / 1e6,
+        color="k",
+        ls=":",
+        lw=0.8,
+        label="asked: powerReference + reserveRequest",
+    )
     ax[0].axhspan(49.5, 49.9, color="tab:orange", alpha=0.08, label="FCR-D up band 49.9…49.5 Hz")
     ax[0].set_ylim(min(base["f"].min(), 49.65) - 0.02, 50.02)
     ax[0].set_ylabel("frequency at B12 [Hz]")
@@ -279,30 +346,62 @@ def plot(path, cases, n_modules):
 
 
 def print_table(table, band):
-    print(f"frequency at B12; RoCoF over {1e3 * ROCOF_WINDOW:.0f} ms windows; settled within ±{1e3 * band:.0f} mHz "
-          f"of the final value (mean of the last second)")
-    print(f"{'run':>22} | {'first dip':>14} | {'nadir':>9} | {'RoCoF':>10} | {'settles':>7} | {'final':>9} | "
-          f"{'hub before / +7.5 s / end':>25} | {'request':>7}")
+    print(
+        f"frequency at B12; RoCoF over {1e3 * ROCOF_WINDOW:.0f} ms windows; settled within ±{1e3 * band:.0f} mHz "
+        f"of the final value (mean of the last second)"
+    )
+    print(
+        f"{'run':>22} | {'first dip':>14} | {'nadir':>9} | {'RoCoF':>10} | {'settles':>7} | {'final':>9} | "
+        f"{'hub before / +7.5 s / end':>25} | {'request':>7}"
+    )
     for name, m in table.items():
-        print(f"{name:>22} | {m['first dip [Hz]']:7.4f} Hz {m['first dip at [s]']:3.1f} s | "
-              f"{m['nadir [Hz]']:.4f} Hz | {m['max RoCoF [Hz/s]']:.3f} Hz/s | {m['settling time [s]']:5.1f} s | "
-              f"{m['final frequency [Hz]']:.4f} Hz | {m['hub power before [MW]']:5.2f} / "
-              f"{m['hub power at trip + 7.5 s [MW]']:5.2f} / {m['hub power at end [MW]']:5.2f} MW | "
-              f"{m['reserveRequest at end [MW]']:5.2f} MW")
+        print(
+            f"{name:>22} | {m['first dip [Hz]']:7.4f} Hz {m['first dip at [s]']:3.1f} s | "
+            f"{m['nadir [Hz]']:.4f} Hz | {m['max RoCoF [Hz/s]']:.3f} Hz/s | {m['settling time [s]']:5.1f} s | "
+            f"{m['final frequency [Hz]']:.4f} Hz | {m['hub power before [MW]']:5.2f} / "
+            f"{m['hub power at trip + 7.5 s [MW]']:5.2f} / {m['hub power at end [MW]']:5.2f} MW | "
+            f"{m['reserveRequest at end [MW]']:5.2f} MW"
+        )
 
 
-def run(fmu=None, duration=60.0, trip_time=2.0, capacity=12e6, load=0.8, band=0.010, exchange=0.1,
-        n_modules=N_MODULES, out=None, hub_factory=HubFMU, verbose=True, quiet=True):
+def run(
+    fmu=None,
+    duration=60.0,
+    trip_time=2.0,
+    capacity=12e6,
+    load=0.8,
+    band=0.010,
+    exchange=0.1,
+    n_modules=N_MODULES,
+    out=None,
+    hub_factory=HubFMU,
+    verbose=True,
+    quiet=True,
+):
     """The runs of RUNS; writes generator_trip.csv, generator_trip_table.csv and .png into the
     folder `out` when given; a progress bar of simulated seconds unless quiet."""
-    with contextlib.redirect_stdout(sys.stderr), \
-            cli.progress(total=len(RUNS) * duration, unit="s", desc="generator_trip", quiet=quiet) as bar:
+    with (
+        contextlib.redirect_stdout(sys.stderr),
+        cli.progress(total=len(RUNS) * duration, unit="s", desc="generator_trip", quiet=quiet) as bar,
+    ):
         # TOPS's messages are no report
         p_ref = load * hub_rating(fmu, n_modules, hub_factory)[1]
-        cases = {name: run_case(fmu, duration, p_ref, capacity if offers else 0.0, compensation, trip_time,
-                                exchange, n_modules=n_modules, hub_factory=hub_factory,
-                                name="hub_" + name.replace(" ", "_").replace(",", ""), bar=bar)
-                 for name, (offers, compensation) in RUNS.items()}
+        cases = {
+            name: run_case(
+                fmu,
+                duration,
+                p_ref,
+                capacity if offers else 0.0,
+                compensation,
+                trip_time,
+                exchange,
+                n_modules=n_modules,
+                hub_factory=hub_factory,
+                name="hub_" + name.replace(" ", "_").replace(",", ""),
+                bar=bar,
+            )
+            for name, (offers, compensation) in RUNS.items()
+        }
     table = {name: metrics(o, band) for name, o in cases.items()}
     if out is not None:
         out = Path(out) / "generator_trip"
@@ -311,8 +410,10 @@ def run(fmu=None, duration=60.0, trip_time=2.0, capacity=12e6, load=0.8, band=0.
         plot(out.with_suffix(".png"), cases, n_modules)
     if verbose:
         o = cases["no reserve"]
-        print(f"trip of one {TRIP_GEN} unit ({o['tripped'] / 1e6:.1f} MW) at t = {trip_time:g} s; hub of {n_modules} "
-              f"modules at {p_ref / 1e6:.2f} MW ({100 * load:g} % of rated), FCR-D up {capacity / 1e6:g} MW")
+        print(
+            f"trip of one {TRIP_GEN} unit ({o['tripped'] / 1e6:.1f} MW) at t = {trip_time:g} s; hub of {n_modules} "
+            f"modules at {p_ref / 1e6:.2f} MW ({100 * load:g} % of rated), FCR-D up {capacity / 1e6:g} MW"
+        )
         print_table(table, band)
         if out is not None:
             table_csv = out.parent / f"{out.name}_table.csv"
@@ -325,20 +426,31 @@ def main(argv=None):
     cli.add_fmu_option(parser)
     parser.add_argument("--duration", type=cli.positive(float), default=60.0, help="simulated seconds [default: 60]")
     parser.add_argument("--trip-time", type=cli.non_negative(float), default=2.0, help="seconds [default: 2]")
-    parser.add_argument("--capacity", type=cli.non_negative(float), default=12.0,
-                        help="FCR-D up capacity [MW] [default: 12]")
-    parser.add_argument("--load", type=cli.positive(float), default=0.8,
-                        help="hub power reference / rated power, in (0, 1] [default: 0.8]")
-    parser.add_argument("--modules", type=cli.positive(int), default=N_MODULES,
-                        help=f"modules in the hub [default: {N_MODULES}]")
+    parser.add_argument(
+        "--capacity", type=cli.non_negative(float), default=12.0, help="FCR-D up capacity [MW] [default: 12]"
+    )
+    parser.add_argument(
+        "--load",
+        type=cli.positive(float),
+        default=0.8,
+        help="hub power reference / rated power, in (0, 1] [default: 0.8]",
+    )
+    parser.add_argument(
+        "--modules", type=cli.positive(int), default=N_MODULES, help=f"modules in the hub [default: {N_MODULES}]"
+    )
     parser.add_argument("--band", type=cli.positive(float), default=10.0, help="settling band [mHz] [default: 10]")
-    parser.add_argument("--exchange", type=cli.positive(float), default=0.1,
-                        help="FMU communication step [s], a multiple of TOPS's 5 ms [default: 0.1]")
+    parser.add_argument(
+        "--exchange",
+        type=cli.positive(float),
+        default=0.1,
+        help="FMU communication step [s], a multiple of TOPS's 5 ms [default: 0.1]",
+    )
     cli.add_out_option(parser, "out", "generator_trip.csv, generator_trip_table.csv and generator_trip.png")
     args = parser.parse_args(argv)
     if not args.trip_time + max(FIRST_DIP_WINDOW, T_COMPARE) < args.duration:
-        parser.error(f"--duration: {args.duration:g} s; it must exceed --trip-time + "
-                     f"{max(FIRST_DIP_WINDOW, T_COMPARE):g} s")
+        parser.error(
+            f"--duration: {args.duration:g} s; it must exceed --trip-time + {max(FIRST_DIP_WINDOW, T_COMPARE):g} s"
+        )
     if args.load > 1:
         parser.error(f"--load: {args.load:g} is above 1 (the hub's rated power)")
     if abs(args.exchange / 5e-3 - round(args.exchange / 5e-3)) > 1e-9:
@@ -346,8 +458,19 @@ def main(argv=None):
     require("grid", parser.prog)
     args.fmu = cli.resolve_fmu(parser, args)
     cli.writable_folder(args.out)
-    run(args.fmu, args.duration, args.trip_time, args.capacity * 1e6, args.load, args.band * 1e-3, args.exchange,
-        args.modules, args.out, verbose=not args.quiet, quiet=args.quiet)
+    run(
+        args.fmu,
+        args.duration,
+        args.trip_time,
+        args.capacity * 1e6,
+        args.load,
+        args.band * 1e-3,
+        args.exchange,
+        args.modules,
+        args.out,
+        verbose=not args.quiet,
+        quiet=args.quiet,
+    )
 
 
 if __name__ == "__main__":

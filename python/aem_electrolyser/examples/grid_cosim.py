@@ -20,6 +20,7 @@ in equilibrium (no start transient). Two runs: steady 10 m/s wind, and the same 
 and voltage at B12 (a PLL at the bus) are plotted; <out>/grid_cosim.csv and grid_cosim.png are
 written before the summary is printed, and TOPS's messages go to stderr.
 """
+
 import contextlib
 import csv
 import sys
@@ -45,11 +46,13 @@ def power_system(p_wind_mw, p_hub_mw):
     model["lines"].append(["L9-12", "B9", BUS, 20, 100, BUS_KV, "p.u.", 1e-4, 1e-3, 1.75e-3])
     g = np.sqrt(3) * BUS_KV  # MW per kA at 1 pu: the PI gains below act on MW errors
     header = ["name", "T_pll", "T_i", "bus", "P_K_p", "P_K_i", "Q_K_p", "Q_K_i", "P_setp", "Q_setp"]
-    model["vsc"] = {"VSC": [
-        header,
-        ["WIND", 0.1, 0.02, BUS, 0.5 / g, 10 / g, 0.5 / g, 10 / g, p_wind_mw, 0.0],
-        ["HUB", 0.1, 0.02, BUS, 0.5 / g, 10 / g, 0.5 / g, 10 / g, -p_hub_mw, 0.0],
-    ]}
+    model["vsc"] = {
+        "VSC": [
+            header,
+            ["WIND", 0.1, 0.02, BUS, 0.5 / g, 10 / g, 0.5 / g, 10 / g, p_wind_mw, 0.0],
+            ["HUB", 0.1, 0.02, BUS, 0.5 / g, 10 / g, 0.5 / g, 10 / g, -p_hub_mw, 0.0],
+        ]
+    }
     model["pll"] = {"PLL1": [["name", "T_filter", "bus"], ["PLL12", 0.05, BUS]]}
     return model
 
@@ -67,25 +70,32 @@ def run_case(fmu, duration, gust_start, exchange=0.1, dt=5e-3, hub_factory=HubFM
     import tops.solvers as dps_sol
 
     p_wind = wind_power(0.0, gust_start)
-    hub = hub_factory(fmu, instance_name="hub_gust" if gust_start is not None else "hub_steady",
-                      nModules=N_MODULES, powerInput=True, dispatch=dispatch[0], belowMinimum=dispatch[1])
+    hub = hub_factory(
+        fmu,
+        instance_name="hub_gust" if gust_start is not None else "hub_steady",
+        nModules=N_MODULES,
+        powerInput=True,
+        dispatch=dispatch[0],
+        belowMinimum=dispatch[1],
+    )
     try:
         hub.initialize(powerReference=p_wind)
         p_hub = hub.get("hubPower")
         ps = dps.PowerSystemModel(model=power_system(p_wind / 1e6, p_hub / 1e6))
         ps.init_dyn_sim()
-        sol = dps_sol.ModifiedEulerDAE(ps.state_derivatives, ps.solve_algebraic, 0, ps.x_0.copy(), duration,
-                                       max_step=dt)
+        sol = dps_sol.ModifiedEulerDAE(
+            ps.state_derivatives, ps.solve_algebraic, 0, ps.x_0.copy(), duration, max_step=dt
+        )
         vsc, pll = ps.vsc["VSC"], ps.pll["PLL1"]
         bus = vsc.bus_idx_red["terminal"][0]
         steps_per_exchange = int(round(exchange / dt))
         rec = {k: [] for k in ("time", "wind", "hub", "vsc_wind", "vsc_hub", "df", "v")}
         k = 0
         while sol.t < duration - dt / 2:
-            p_wind = wind_power(sol.t, gust_start)     # the wind farm is part of the TOPS model
+            p_wind = wind_power(sol.t, gust_start)  # the wind farm is part of the TOPS model
             vsc.set_input("P_setp", p_wind / 1e6, 0)
             if k % steps_per_exchange == 0:
-                p_hub = hub.get("hubPower")             # the hub's power at t, held over the exchange
+                p_hub = hub.get("hubPower")  # the hub's power at t, held over the exchange
                 vsc.set_input("P_setp", -p_hub / 1e6, 1)
                 hub.step(exchange, powerReference=p_wind)
                 if bar is not None:
@@ -112,8 +122,20 @@ def write_csv(path, cases):
     names = list(cases)
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["time [s]"] + [f"{c} {q}" for c in names for q in (
-            "wind power [W]", "hub power [W]", "grid exchange [W]", "frequency deviation [Hz]", "voltage [pu]")])
+        w.writerow(
+            ["time [s]"]
+            + [
+                f"{c} {q}"
+                for c in names
+                for q in (
+                    "wind power [W]",
+                    "hub power [W]",
+                    "grid exchange [W]",
+                    "frequency deviation [Hz]",
+                    "voltage [pu]",
+                )
+            ]
+        )
         t = cases[names[0]]["time"]
         for k in range(len(t)):
             row = [t[k]]
@@ -125,6 +147,7 @@ def write_csv(path, cases):
 
 def plot(path, cases):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -151,12 +174,13 @@ def plot(path, cases):
     plt.close(fig)
 
 
-def run(fmu=None, duration=60.0, gust_start=10.0, exchange=0.1, out=None, hub_factory=HubFMU,
-        verbose=True, quiet=True):
+def run(fmu=None, duration=60.0, gust_start=10.0, exchange=0.1, out=None, hub_factory=HubFMU, verbose=True, quiet=True):
     """Both cases; writes <out>/grid_cosim.csv and .png when the folder `out` is given; a progress
     bar of simulated seconds unless quiet."""
-    with contextlib.redirect_stdout(sys.stderr), \
-            cli.progress(total=2 * duration, unit="s", desc="grid_cosim", quiet=quiet) as bar:
+    with (
+        contextlib.redirect_stdout(sys.stderr),
+        cli.progress(total=2 * duration, unit="s", desc="grid_cosim", quiet=quiet) as bar,
+    ):
         # TOPS's messages are no report
         cases = {
             "steady wind": run_case(fmu, duration, None, exchange, hub_factory=hub_factory, bar=bar),
@@ -170,9 +194,11 @@ def run(fmu=None, duration=60.0, gust_start=10.0, exchange=0.1, out=None, hub_fa
     if verbose:
         for name, o in cases.items():
             exch = o["vsc_wind"] - o["vsc_hub"]
-            print(f"{name:>12}: hub {o['vsc_hub'][0] / 1e6:.2f} MW at t = 0, max |grid exchange| "
-                  f"{np.abs(exch).max() / 1e6:6.2f} MW, max |frequency deviation| {1e3 * np.abs(o['df']).max():.3g} mHz, "
-                  f"voltage {o['v'].min():.5f}…{o['v'].max():.5f} pu")
+            print(
+                f"{name:>12}: hub {o['vsc_hub'][0] / 1e6:.2f} MW at t = 0, max |grid exchange| "
+                f"{np.abs(exch).max() / 1e6:6.2f} MW, max |frequency deviation| {1e3 * np.abs(o['df']).max():.3g} mHz, "
+                f"voltage {o['v'].min():.5f}…{o['v'].max():.5f} pu"
+            )
         if out is not None:
             print(f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
     return cases
@@ -182,10 +208,18 @@ def main(argv=None):
     parser = cli.CommandLine(description=__doc__)
     cli.add_fmu_option(parser)
     parser.add_argument("--duration", type=cli.positive(float), default=60.0, help="simulated seconds [default: 60]")
-    parser.add_argument("--gust-start", type=cli.non_negative(float), default=10.0,
-                        help="start of the gust [s], before the end [default: 10]")
-    parser.add_argument("--exchange", type=cli.positive(float), default=0.1,
-                        help="FMU communication step [s], a multiple of TOPS's 5 ms [default: 0.1]")
+    parser.add_argument(
+        "--gust-start",
+        type=cli.non_negative(float),
+        default=10.0,
+        help="start of the gust [s], before the end [default: 10]",
+    )
+    parser.add_argument(
+        "--exchange",
+        type=cli.positive(float),
+        default=0.1,
+        help="FMU communication step [s], a multiple of TOPS's 5 ms [default: 0.1]",
+    )
     cli.add_out_option(parser, "out", "grid_cosim.csv and grid_cosim.png")
     args = parser.parse_args(argv)
     if args.gust_start >= args.duration:

@@ -15,6 +15,7 @@ the end. Writes <out>/step_responses.csv (current [A] of every run against time 
 step), <out>/step_responses_table.csv (the table) and <out>/step_responses.png before it prints
 the table; the FMU's messages go to stderr.
 """
+
 import contextlib
 import csv
 import shutil
@@ -30,13 +31,23 @@ from aem_electrolyser.hub.messages import fmu_words, instantiate
 SIZES = [5, 10, 20, 30, 40]  # step sizes [% of nominal]
 TOP, BOTTOM = 100.0, 60.0  # start levels of negative and positive steps [%]
 PRE = 60.0  # seconds simulated before the step
-TABLE_HEADER = ["direction", "from [%]", "to [%]", "change [A]", "final K*u [A]", "t90 [s]",
-                "I(t90)/final [%]", "t98 [s]", "overshoot [% of step]", "I(end) [A]"]
+TABLE_HEADER = [
+    "direction",
+    "from [%]",
+    "to [%]",
+    "change [A]",
+    "final K*u [A]",
+    "t90 [s]",
+    "I(t90)/final [%]",
+    "t98 [s]",
+    "overshoot [% of step]",
+    "I(end) [A]",
+]
 
 
 def runs():
     """(label, from [%], to [%]) of every step: negative steps first."""
-    return ([(f"-{s} %", TOP, TOP - s) for s in SIZES] + [(f"+{s} %", BOTTOM, BOTTOM + s) for s in SIZES])
+    return [(f"-{s} %", TOP, TOP - s) for s in SIZES] + [(f"+{s} %", BOTTOM, BOTTOM + s) for s in SIZES]
 
 
 def simulate_steps(fmu, steps, duration, dt, quiet=True):
@@ -50,8 +61,12 @@ def simulate_steps(fmu, steps, duration, dt, quiet=True):
     currents = []
     try:
         for u0, u1 in cli.progress(steps, desc="step responses", unit="step", quiet=quiet):
-            slave = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
-                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName="steps")
+            slave = FMU2Slave(
+                guid=md.guid,
+                unzipDirectory=unzipdir,
+                modelIdentifier=md.coSimulation.modelIdentifier,
+                instanceName="steps",
+            )
             instantiate(slave, echo=True)
             with fmu_words(f"the step from {u0:g} to {u1:g} %"):
                 slave.setupExperiment(startTime=t[0])
@@ -110,6 +125,7 @@ def write_csvs(out, t, labeled, currents, table):
 
 def plot(path, t, labeled, currents, table, dpi):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -128,9 +144,14 @@ def plot(path, t, labeled, currents, table, dpi):
         ax.set_xlabel("time since the setpoint step [s]")
         ax.set_ylabel("stack current [A]")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2,
-                  title="setpoint step (dot: 90 % of the change reached; dotted line: final value K·u)",
-                  title_fontsize=7.5)
+        ax.legend(
+            fontsize=7.5,
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.16),
+            ncol=2,
+            title="setpoint step (dot: 90 % of the change reached; dotted line: final value K·u)",
+            title_fontsize=7.5,
+        )
     fig.suptitle("AEM module FMU (Table I parameters): current response to setpoint steps", fontsize=11)
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
@@ -138,19 +159,24 @@ def plot(path, t, labeled, currents, table, dpi):
 
 
 def print_table(table):
-    print(f"{'step':>6} {'from→to [%]':>12} {'ΔI [A]':>8} {'K·u [A]':>8} {'t90 [s]':>8} {'I(t90)/final':>12} "
-          f"{'t98 [s]':>8} {'overshoot':>9} {'I(end) [A]':>10}")
+    print(
+        f"{'step':>6} {'from→to [%]':>12} {'ΔI [A]':>8} {'K·u [A]':>8} {'t90 [s]':>8} {'I(t90)/final':>12} "
+        f"{'t98 [s]':>8} {'overshoot':>9} {'I(end) [A]':>10}"
+    )
     for label, u0, u1, di, final, t90, i90, t98, over, end in table:
-        print(f"{label:>6} {f'{u0:g}→{u1:g}':>12} {di:8.3f} {final:8.3f} {t90:8.1f} {i90:11.2f}% "
-              f"{t98:8.1f} {over:8.2f}% {end:10.4f}")
+        print(
+            f"{label:>6} {f'{u0:g}→{u1:g}':>12} {di:8.3f} {final:8.3f} {t90:8.1f} {i90:11.2f}% "
+            f"{t98:8.1f} {over:8.2f}% {end:10.4f}"
+        )
 
 
 def main(argv=None):
     parser = cli.CommandLine(description=__doc__)
     cli.add_fmu_option(parser)
     cli.add_out_option(parser, "out", "step_responses.csv, step_responses_table.csv and step_responses.png")
-    parser.add_argument("--duration", type=cli.positive(float), default=900.0,
-                        help="seconds simulated after the step [default: 900]")
+    parser.add_argument(
+        "--duration", type=cli.positive(float), default=900.0, help="seconds simulated after the step [default: 900]"
+    )
     parser.add_argument("--dt", type=cli.positive(float), default=0.1, help="communication step [s] [default: 0.1]")
     parser.add_argument("--dpi", type=cli.positive(int), default=110, help="resolution of the PNG [default: 110]")
     args = parser.parse_args(argv)
@@ -161,15 +187,18 @@ def main(argv=None):
     cli.writable_folder(args.out)
     labeled = runs()
     with contextlib.redirect_stdout(sys.stderr):  # the FMU's log is no report
-        t, currents, gain = simulate_steps(args.fmu, [(u0, u1) for _, u0, u1 in labeled], args.duration, args.dt,
-                                          args.quiet)
+        t, currents, gain = simulate_steps(
+            args.fmu, [(u0, u1) for _, u0, u1 in labeled], args.duration, args.dt, args.quiet
+        )
     table = [[lab, u0, u1] + metrics(t, c, u0, u1, gain) for (lab, u0, u1), c in zip(labeled, currents)]
     write_csvs(args.out, t, labeled, currents, table)
     plot(args.out / "step_responses.png", t, labeled, currents, table, args.dpi)
     if args.quiet:
         return
     print_table(table)
-    print(f"wrote {args.out / 'step_responses.csv'}, {args.out / 'step_responses_table.csv'} and {args.out / 'step_responses.png'}")
+    print(
+        f"wrote {args.out / 'step_responses.csv'}, {args.out / 'step_responses_table.csv'} and {args.out / 'step_responses.png'}"
+    )
 
 
 if __name__ == "__main__":

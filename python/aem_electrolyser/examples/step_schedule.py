@@ -8,6 +8,7 @@ against time), then prints a short table; the FMU's messages go to stderr. Steps
 down follow the two-exponential response of G(s); steps up are held to the 0.22 A/s ramp limit
 until the response catches up.
 """
+
 import csv
 
 import numpy as np
@@ -44,8 +45,14 @@ def simulate(fmu):
     signal = input_signal(read_model_description(str(fmu)))
     try:  # the FMU's warnings go to stderr; a refusal ends in one error in its words
         return simulate_fmu(
-            str(fmu), start_time=0.0, stop_time=STOP_TIME, step_size=1.0, output_interval=1.0,
-            input=signal, output=OUTPUTS, logger=log_to_stderr,
+            str(fmu),
+            start_time=0.0,
+            stop_time=STOP_TIME,
+            step_size=1.0,
+            output_interval=1.0,
+            input=signal,
+            output=OUTPUTS,
+            logger=log_to_stderr,
         )
     except Exception as e:  # noqa: BLE001 - fmpy raises plain Exceptions
         raise refusal(f"the simulation ({e})") from None
@@ -54,14 +61,25 @@ def simulate(fmu):
 def write_csv(result, path):
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["time [s]", "setpoint [%]", "current [A]", "voltage [V]", "power [W]",
-                    "h2Flow [Nl/h]", "energy [J]", "h2Produced [Nl]"])
+        w.writerow(
+            [
+                "time [s]",
+                "setpoint [%]",
+                "current [A]",
+                "voltage [V]",
+                "power [W]",
+                "h2Flow [Nl/h]",
+                "energy [J]",
+                "h2Produced [Nl]",
+            ]
+        )
         for row in result:
             w.writerow([f"{x:.10g}" for x in row])
 
 
 def plot(result, path):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -102,13 +120,17 @@ def main(argv=None):
     if args.quiet:
         return
 
-    print(f"{'t [s]':>7} {'setpoint [%]':>12} {'current [A]':>11} {'voltage [V]':>11} {'power [W]':>10} {'H2 [Nl/h]':>9}")
+    print(
+        f"{'t [s]':>7} {'setpoint [%]':>12} {'current [A]':>11} {'voltage [V]':>11} {'power [W]':>10} {'H2 [Nl/h]':>9}"
+    )
     times = sorted({t for t, _ in SCHEDULE} | {t + d for t, _ in SCHEDULE for d in (10, 60)} | {STOP_TIME})
     for t in times:
         if t > STOP_TIME:
             continue
         r = result[int(round(t))]
-        print(f"{r['time']:7.0f} {r['setpoint']:12.1f} {r['current']:11.3f} {r['voltage']:11.3f} {r['power']:10.1f} {r['h2Flow']:9.1f}")
+        print(
+            f"{r['time']:7.0f} {r['setpoint']:12.1f} {r['current']:11.3f} {r['voltage']:11.3f} {r['power']:10.1f} {r['h2Flow']:9.1f}"
+        )
     last = result[-1]
     print(f"energy {last['energy'] / 3.6e6:.4f} kWh, hydrogen {last['h2Produced']:.1f} Nl in {STOP_TIME:.0f} s")
     print(f"wrote {csv_path} and {png_path}")

@@ -18,6 +18,7 @@ Writes <out>/validation_day.csv (measured and simulated, every running row),
 <out>/validation_day.png and <out>/validation_parameters.csv, then prints the identified
 parameters against the true ones and the RMSEs. The commands it runs are echoed on stderr.
 """
+
 import contextlib
 import csv
 import json
@@ -37,8 +38,16 @@ from aem_electrolyser.extras import require
 
 SETTLE = 600.0  # rows this long after a start-up are compared [s]
 RUNNING_CURRENT = 1.0  # a row runs above this current [A] with a setpoint > 0
-PARAMETERS = ["gain", "tauZero", "tauPole1", "tauPole2", "rampUpLimit", "voltageIntercept",
-              "ohmicResistance", "h2Coefficient"]
+PARAMETERS = [
+    "gain",
+    "tauZero",
+    "tauPole1",
+    "tauPole2",
+    "rampUpLimit",
+    "voltageIntercept",
+    "ohmicResistance",
+    "h2Coefficient",
+]
 
 
 class StageFailed(RuntimeError):
@@ -63,7 +72,10 @@ def synthesize(tool, work, days, seed, hours):
     shutil.rmtree(work / "heldout", ignore_errors=True)
     out = run([tool, "synthesize", work / "campaign", "--days", days] + extra)
     run([tool, "synthesize", work / "heldout", "--days", 1, "--skip", days] + extra)
-    truth = {name: (float(value), unit) for name, value, unit in re.findall(r"(\w+) ([-0-9.e]+) ([^,\s]+)", out.split("truth:")[1])}
+    truth = {
+        name: (float(value), unit)
+        for name, value, unit in re.findall(r"(\w+) ([-0-9.e]+) ([^,\s]+)", out.split("truth:")[1])
+    }
     return truth, work / "heldout" / "day01.csv"
 
 
@@ -86,8 +98,12 @@ def simulate(fmu, time, setpoint):
     outputs = [vr["current"], vr["voltage"], vr["power"]]
     unzipdir = extract(str(fmu))
     try:
-        slave = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
-                          modelIdentifier=md.coSimulation.modelIdentifier, instanceName="heldout")
+        slave = FMU2Slave(
+            guid=md.guid,
+            unzipDirectory=unzipdir,
+            modelIdentifier=md.coSimulation.modelIdentifier,
+            instanceName="heldout",
+        )
         slave.instantiate()
         slave.setupExperiment(startTime=time[0])
         slave.setReal([vr["setpoint"]], [setpoint[0]])  # steady state at the first setpoint
@@ -109,13 +125,22 @@ def compare(fmu, day):
     """Measured and simulated values of every running row, and which rows are compared."""
     running = (day["current"] > RUNNING_CURRENT) & (day["setpoint"] > 0)
     edges = np.flatnonzero(np.diff(np.r_[0, running.astype(int), 0]))
-    rows = {k: [] for k in ("time", "setpoint", "current", "voltage", "current_sim", "voltage_sim", "power_sim", "compared")}
+    rows = {
+        k: [] for k in ("time", "setpoint", "current", "voltage", "current_sim", "voltage_sim", "power_sim", "compared")
+    }
     for start, stop in zip(edges[::2], edges[1::2]):
         t, u = day["time"][start:stop], day["setpoint"][start:stop]
         i_sim, v_sim, p_sim = simulate(fmu, t, u)
-        for key, values in [("time", t), ("setpoint", u), ("current", day["current"][start:stop]),
-                            ("voltage", day["voltage"][start:stop]), ("current_sim", i_sim),
-                            ("voltage_sim", v_sim), ("power_sim", p_sim), ("compared", t - t[0] >= SETTLE)]:
+        for key, values in [
+            ("time", t),
+            ("setpoint", u),
+            ("current", day["current"][start:stop]),
+            ("voltage", day["voltage"][start:stop]),
+            ("current_sim", i_sim),
+            ("voltage_sim", v_sim),
+            ("power_sim", p_sim),
+            ("compared", t - t[0] >= SETTLE),
+        ]:
             rows[key].append(values)
     rows = {k: np.concatenate(v) for k, v in rows.items()}
     rows["power"] = rows["current"] * rows["voltage"]
@@ -129,12 +154,16 @@ def rmse(rows, key):
 
 def plot(path, rows, rmses, dpi):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     hours = (rows["time"] % 86400.0) / 3600.0  # time of day (UTC) [h]
-    panels = [("current", "Stack current", "[A]", "A", 1.0), ("voltage", "Stack voltage", "[V]", "V", 1.0),
-              ("power", "DC power", "[kW]", "W", 1e-3)]
+    panels = [
+        ("current", "Stack current", "[A]", "A", 1.0),
+        ("voltage", "Stack voltage", "[V]", "V", 1.0),
+        ("power", "DC power", "[kW]", "W", 1e-3),
+    ]
     fig, axes = plt.subplots(4, 1, figsize=(10, 8.4), sharex=True, gridspec_kw={"height_ratios": [1, 2, 2, 2]})
     c = rows["compared"]
     axes[0].step(hours, rows["setpoint"], where="post", color="tab:gray")
@@ -144,16 +173,29 @@ def plot(path, rows, rmses, dpi):
         ax.plot(hours, scale * rows[key], color="0.55", lw=0.6, label="measured (synthetic, with sensor noise)")
         ax.plot(hours, scale * rows[key + "_sim"], color="tab:blue", lw=1.0, label="identified FMU in fmpy")
         ax.set_ylabel(f"{name.lower() if name[1].islower() else name} {axis_unit}")
-        ax.set_title(f"{name}: RMSE {rmses[key]:.4g} {unit} (rows ≥ {SETTLE:.0f} s after start-up)", fontsize=9, loc="left")
+        ax.set_title(
+            f"{name}: RMSE {rmses[key]:.4g} {unit} (rows ≥ {SETTLE:.0f} s after start-up)", fontsize=9, loc="left"
+        )
         lo, hi = scale * rows[key][c].min(), scale * rows[key][c].max()
         ax.set_ylim(lo - 0.08 * (hi - lo), hi + 0.08 * (hi - lo))  # the start-up from 0 runs off the bottom
     for ax in axes:
-        ax.fill_between(hours, 0, 1, where=~c, transform=ax.get_xaxis_transform(),
-                        color="tab:orange", alpha=0.15, lw=0, label="start-up (not compared)")
+        ax.fill_between(
+            hours,
+            0,
+            1,
+            where=~c,
+            transform=ax.get_xaxis_transform(),
+            color="tab:orange",
+            alpha=0.15,
+            lw=0,
+            label="start-up (not compared)",
+        )
         ax.grid(alpha=0.3)
     axes[1].legend(loc="upper left", fontsize=8)
     axes[-1].set_xlabel("time of day (UTC) [h]")
-    fig.suptitle("Validation of the identified model on a held-out day (synthetic campaign with known parameters)", fontsize=11)
+    fig.suptitle(
+        "Validation of the identified model on a held-out day (synthetic campaign with known parameters)", fontsize=11
+    )
     fig.tight_layout()
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
@@ -161,8 +203,17 @@ def plot(path, rows, rmses, dpi):
 
 def write_outputs(out, rows, table):
     keys = ["time", "setpoint", "current", "current_sim", "voltage", "voltage_sim", "power", "power_sim", "compared"]
-    header = ["time [s]", "setpoint [%]", "current measured [A]", "current FMU [A]", "voltage measured [V]",
-              "voltage FMU [V]", "power measured [W]", "power FMU [W]", "compared"]
+    header = [
+        "time [s]",
+        "setpoint [%]",
+        "current measured [A]",
+        "current FMU [A]",
+        "voltage measured [V]",
+        "voltage FMU [V]",
+        "power measured [W]",
+        "power FMU [W]",
+        "compared",
+    ]
     with open(out / "validation_day.csv", "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(header)
@@ -179,12 +230,19 @@ STAGES = ("synthesize the campaign", "fit", "package the identified FMU", "valid
 
 def main(argv=None):
     parser = cli.CommandLine(description=__doc__)
-    cli.add_out_option(parser, "out", "validation_day.csv, validation_parameters.csv, validation_day.png and validation/")
-    parser.add_argument("--days", type=cli.positive(int), default=10,
-                        help="training days (the held-out day is the next one) [default: 10]")
+    cli.add_out_option(
+        parser, "out", "validation_day.csv, validation_parameters.csv, validation_day.png and validation/"
+    )
+    parser.add_argument(
+        "--days",
+        type=cli.positive(int),
+        default=10,
+        help="training days (the held-out day is the next one) [default: 10]",
+    )
     parser.add_argument("--seed", type=int, default=2026, help="seed of the synthetic campaign [default: 2026]")
-    parser.add_argument("--hours", type=cli.positive(float),
-                        help="running hours per day, at most 23 [default: the generator's 8.2 h]")
+    parser.add_argument(
+        "--hours", type=cli.positive(float), help="running hours per day, at most 23 [default: the generator's 8.2 h]"
+    )
     parser.add_argument("--tool", type=Path, help="aem-identify [default: the one of this installation]")
     parser.add_argument("--dpi", type=cli.positive(int), default=110, help="resolution of the PNG [default: 110]")
     args = parser.parse_args(argv)
@@ -195,8 +253,10 @@ def main(argv=None):
     require("plots", parser.prog)
     checkout = locate.checkout()
     if checkout is None:
-        sys.exit(f"{parser.prog}: error: it rebuilds the FMU with the identified parameters (packaging/package.py): "
-                 "run it in a source checkout of aem-electrolyser")
+        sys.exit(
+            f"{parser.prog}: error: it rebuilds the FMU with the identified parameters (packaging/package.py): "
+            "run it in a source checkout of aem-electrolyser"
+        )
     try:
         args.tool = args.tool or locate.binary("aem-identify")
     except locate.NotBuilt as e:
@@ -240,8 +300,10 @@ def main(argv=None):
     for name, unit, true, value, se, error in table:
         print(f"{name:<17} {unit:<9} {true:10.5g} {value:12.6g} {se:11.2g} {error:+7.3f}%")
     print(f"\nheld-out day {heldout.name}: {int(rows['compared'].sum())} of {len(rows['time'])} running rows compared")
-    print(f"RMSE current {rmses['current']:.4f} A (aem-identify validate: {tool_rmse:.4f} A), "
-          f"voltage {rmses['voltage']:.4f} V, DC power {rmses['power']:.3f} W")
+    print(
+        f"RMSE current {rmses['current']:.4f} A (aem-identify validate: {tool_rmse:.4f} A), "
+        f"voltage {rmses['voltage']:.4f} V, DC power {rmses['power']:.3f} W"
+    )
     print(f"wrote {out / 'validation_day.csv'}, {out / 'validation_parameters.csv'} and {out / 'validation_day.png'}")
 
 

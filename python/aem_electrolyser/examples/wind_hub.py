@@ -12,6 +12,7 @@ behaviour) and sequential (as few modules as possible, the others in standby). P
 energy not absorbed, the hydrogen produced and the RMS tracking error of each after it has
 written <out>/wind_hub.csv and wind_hub.png.
 """
+
 import contextlib
 import csv
 import sys
@@ -29,8 +30,16 @@ DISPATCHES = {
     "equal": dict(dispatch=1, belowMinimum=0),
     "sequential": dict(dispatch=2, belowMinimum=1),
 }
-OUTPUTS = ["hubPower", "hubEnergy", "hubH2Produced", "power", "modulesRunning", "modulesStarting",
-           "modulesStandby", "starts"]
+OUTPUTS = [
+    "hubPower",
+    "hubEnergy",
+    "hubH2Produced",
+    "power",
+    "modulesRunning",
+    "modulesStarting",
+    "modulesStandby",
+    "starts",
+]
 H2_DENSITY = 0.08988e-3  # kg per normal litre (0 °C, 1 atm)
 
 
@@ -46,8 +55,7 @@ def simulate(fmu, reference, dt, dispatch, n_modules=N_MODULES, hub_factory=HubF
     Returns a dict of arrays (len(reference) + 1 samples) and the module rating.
     """
     n = len(reference)
-    hub = hub_factory(fmu, instance_name=f"hub_{dispatch}", nModules=n_modules, powerInput=True,
-                      **DISPATCHES[dispatch])
+    hub = hub_factory(fmu, instance_name=f"hub_{dispatch}", nModules=n_modules, powerInput=True, **DISPATCHES[dispatch])
     try:
         hub.initialize(powerReference=reference[0])
         rating = module_rating(hub)
@@ -66,15 +74,20 @@ def simulate(fmu, reference, dt, dispatch, n_modules=N_MODULES, hub_factory=HubF
 
 def summarise(reference, dt, out, n_modules, rating):
     """Energies [J], hydrogen [kg] and tracking error [W] of one run."""
-    wind_step = reference * dt                     # the reference is held over each step
-    hub_step = np.diff(out["hubEnergy"])           # the FMU's exact integral over each step
+    wind_step = reference * dt  # the reference is held over each step
+    hub_step = np.diff(out["hubEnergy"])  # the FMU's exact integral over each step
     grid_step = wind_step - hub_step
     err = out["hubPower"][:-1] - reference
     return dict(
-        wind=wind_step.sum(), hub=out["hubEnergy"][-1] - out["hubEnergy"][0], grid=grid_step.sum(),
-        exported=grid_step[grid_step > 0].sum(), imported=-grid_step[grid_step < 0].sum(),
+        wind=wind_step.sum(),
+        hub=out["hubEnergy"][-1] - out["hubEnergy"][0],
+        grid=grid_step.sum(),
+        exported=grid_step[grid_step > 0].sum(),
+        imported=-grid_step[grid_step < 0].sum(),
         h2_kg=(out["hubH2Produced"][-1] - out["hubH2Produced"][0]) * H2_DENSITY,
-        rms=np.sqrt(np.mean(err**2)), nominal=n_modules * rating[1], starts=out["starts"][-1],
+        rms=np.sqrt(np.mean(err**2)),
+        nominal=n_modules * rating[1],
+        starts=out["starts"][-1],
     )
 
 
@@ -82,21 +95,37 @@ def write_csv(path, t, wind, runs):
     names = list(runs)
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["time [s]", "wind power [W]"]
-                   + [f"{d} {c}" for d in names for c in ("hub power [W]", "grid exchange [W]",
-                                                          "hub energy [J]", "module mean power [W]",
-                                                          "modules running [1]")])
+        w.writerow(
+            ["time [s]", "wind power [W]"]
+            + [
+                f"{d} {c}"
+                for d in names
+                for c in (
+                    "hub power [W]",
+                    "grid exchange [W]",
+                    "hub energy [J]",
+                    "module mean power [W]",
+                    "modules running [1]",
+                )
+            ]
+        )
         for k in range(len(t)):
             row = [t[k], wind[k]]
             for d in names:
                 o = runs[d]
-                row += [o["hubPower"][k], wind[k] - o["hubPower"][k], o["hubEnergy"][k], o["power"][k],
-                        o["modulesRunning"][k]]
+                row += [
+                    o["hubPower"][k],
+                    wind[k] - o["hubPower"][k],
+                    o["hubEnergy"][k],
+                    o["power"][k],
+                    o["modulesRunning"][k],
+                ]
             w.writerow([f"{x:.10g}" for x in row])
 
 
 def plot(path, t, wind, runs, n_modules, rating):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -136,16 +165,26 @@ def plot(path, t, wind, runs, n_modules, rating):
     plt.close(fig)
 
 
-def run(fmu=None, duration=3600.0, seed=1, out=None, hub_factory=HubFMU, dispatches=tuple(DISPATCHES),
-        verbose=True, quiet=True):
+def run(
+    fmu=None,
+    duration=3600.0,
+    seed=1,
+    out=None,
+    hub_factory=HubFMU,
+    dispatches=tuple(DISPATCHES),
+    verbose=True,
+    quiet=True,
+):
     """Simulate every dispatch; write <out>/wind_hub.csv and .png when the folder `out` is given;
     a progress bar of simulated seconds unless quiet."""
     dt = 1.0
     t, wind, _ = farm_power(duration + dt, dt, seed=seed)
     reference = wind[:-1]
     runs, summaries = {}, {}
-    with contextlib.redirect_stdout(sys.stderr), \
-            cli.progress(total=len(dispatches) * len(reference) * dt, unit="s", desc="wind_hub", quiet=quiet) as bar:
+    with (
+        contextlib.redirect_stdout(sys.stderr),
+        cli.progress(total=len(dispatches) * len(reference) * dt, unit="s", desc="wind_hub", quiet=quiet) as bar,
+    ):
         for d in dispatches:
             runs[d], rating = simulate(fmu, reference, dt, d, hub_factory=hub_factory, bar=bar)
             summaries[d] = summarise(reference, dt, runs[d], N_MODULES, rating)
@@ -156,13 +195,19 @@ def run(fmu=None, duration=3600.0, seed=1, out=None, hub_factory=HubFMU, dispatc
         plot(out.with_suffix(".png"), t, wind, runs, N_MODULES, rating)
     if verbose:
         s0 = next(iter(summaries.values()))
-        print(f"wind farm: {s0['wind'] / 3.6e9:.2f} MWh in {duration:.0f} s (mean {reference.mean() / 1e6:.2f} MW); "
-              f"hub of {N_MODULES} modules, {s0['nominal'] / 1e6:.2f} MW at 100 %")
-        print(f"{'dispatch':>10} {'hub [MWh]':>9} {'not absorbed [MWh]':>18} {'imported [MWh]':>14} "
-              f"{'H2 [kg]':>8} {'RMS error [MW]':>14} {'[% nom]':>7} {'starts':>6}")
+        print(
+            f"wind farm: {s0['wind'] / 3.6e9:.2f} MWh in {duration:.0f} s (mean {reference.mean() / 1e6:.2f} MW); "
+            f"hub of {N_MODULES} modules, {s0['nominal'] / 1e6:.2f} MW at 100 %"
+        )
+        print(
+            f"{'dispatch':>10} {'hub [MWh]':>9} {'not absorbed [MWh]':>18} {'imported [MWh]':>14} "
+            f"{'H2 [kg]':>8} {'RMS error [MW]':>14} {'[% nom]':>7} {'starts':>6}"
+        )
         for d, s in summaries.items():
-            print(f"{d:>10} {s['hub'] / 3.6e9:9.3f} {s['exported'] / 3.6e9:18.3f} {s['imported'] / 3.6e9:14.3f} "
-                  f"{s['h2_kg']:8.1f} {s['rms'] / 1e6:14.3f} {100 * s['rms'] / s['nominal']:7.2f} {s['starts']:6.0f}")
+            print(
+                f"{d:>10} {s['hub'] / 3.6e9:9.3f} {s['exported'] / 3.6e9:18.3f} {s['imported'] / 3.6e9:14.3f} "
+                f"{s['h2_kg']:8.1f} {s['rms'] / 1e6:14.3f} {100 * s['rms'] / s['nominal']:7.2f} {s['starts']:6.0f}"
+            )
         if out is not None:
             print(f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
     return t, wind, runs, summaries

@@ -14,6 +14,7 @@ Why not `helics_broker` itself: the pip package's `helics_broker` is a Python wr
 the real broker as a child process, and `helics run` ends a failed federation with SIGKILL,
 which leaves that child running and holding its ports; this program is the broker.
 """
+
 import os
 import shlex
 import sys
@@ -28,8 +29,17 @@ with needs("helics", __name__):
 
 from aem_electrolyser.helics.diagnosis import core_owners, explain
 
-LEVELS = {0: "error", 3: "warning", 6: "summary", 9: "connections", 12: "interfaces", 15: "timing", 18: "data",
-          21: "debug", 24: "trace"}
+LEVELS = {
+    0: "error",
+    3: "warning",
+    6: "summary",
+    9: "connections",
+    12: "interfaces",
+    15: "timing",
+    18: "data",
+    21: "debug",
+    24: "trace",
+}
 _errors = []
 
 
@@ -47,17 +57,26 @@ def _log(level, identifier, message, _user):
 def main():
     p = CommandLine(description=__doc__, quiet=False, epilog="Other options go to HELICS (helics_broker --help).")
     p.add_argument("--coretype", default="zmq", help="HELICS core type [default: zmq]")
-    p.add_argument("-f", "--federates", type=positive(int), default=1,
-                   help="federates to wait for (passed on) [default: 1]")
-    p.add_argument("--wall-limit", type=positive(float), default=1800.0,
-                   help="end with status 2 if the federation still runs after this long [s] [default: 1800]")
+    p.add_argument(
+        "-f", "--federates", type=positive(int), default=1, help="federates to wait for (passed on) [default: 1]"
+    )
+    p.add_argument(
+        "--wall-limit",
+        type=positive(float),
+        default=1800.0,
+        help="end with status 2 if the federation still runs after this long [s] [default: 1800]",
+    )
     args, init = p.parse_known_args()
     init = [f"--federates={args.federates}", *init]
     os.dup2(2, 1)  # HELICS prints its console log to stdout: the broker has no report, all goes to stderr
     broker = h.helicsCreateBroker(args.coretype, "", shlex.join(init))
     h.helicsBrokerSetLoggingCallback(broker, _log, ffi.NULL)
-    print(f"[broker] {h.helicsBrokerGetIdentifier(broker)} at {h.helicsBrokerGetAddress(broker)}, "
-          f"HELICS {h.helicsGetVersion()}, options: {shlex.join(init)}", file=sys.stderr, flush=True)
+    print(
+        f"[broker] {h.helicsBrokerGetIdentifier(broker)} at {h.helicsBrokerGetAddress(broker)}, "
+        f"HELICS {h.helicsGetVersion()}, options: {shlex.join(init)}",
+        file=sys.stderr,
+        flush=True,
+    )
     start, owners, known = time.monotonic(), {}, False
     query = h.helicsCreateQuery("broker", "current_state")
     while not h.helicsBrokerWaitForDisconnect(broker, 500):

@@ -1,6 +1,7 @@
 """Names in HELICS's error messages: a lost connection is reported by the id of a core
 (`lost comms with 1879048194`); the federation's `current_state` (a query answered by the root
 broker) tells whose core that is."""
+
 import re
 
 
@@ -15,7 +16,9 @@ def core_owners(state):
 
 def explain(message, owners):
     """message, with the federates named where it speaks of a core by its id."""
+
     def name(match):
         who = owners.get(int(match.group(2)))
         return match.group(0) + (f" (the core of {who}: its process has died or lost its connection)" if who else "")
+
     return re.sub(r"(lost comms with|disconnecting) (\d+)", name, message)

@@ -15,6 +15,7 @@ unchanged). An exception inside the `with` ends the federate with status 1 and a
 it; unless the federation already is in error, it is first raised as a global error, so every
 other federate's pending HELICS call raises it too.
 """
+
 import os
 import shlex
 import sys
@@ -67,12 +68,18 @@ class Federate:
             h.helicsInputSetDefaultDouble(inp, float("nan"))  # nothing received yet
             self.inputs[h.helicsInputGetName(inp).split("/", 1)[-1]] = inp
         out = Path(args.out)
-        self._published = Record(out / f"{self.name}_published.csv",
-                                 [(h.helicsPublicationGetName(p), h.helicsPublicationGetUnits(p))
-                                  for p in self.pubs.values()])
-        self._received = Record(out / f"{self.name}_received.csv",
-                                [(h.helicsInputGetTarget(i), h.helicsInputGetExtractionUnits(i))
-                                 for i in self.inputs.values()]) if self.inputs else None
+        self._published = Record(
+            out / f"{self.name}_published.csv",
+            [(h.helicsPublicationGetName(p), h.helicsPublicationGetUnits(p)) for p in self.pubs.values()],
+        )
+        self._received = (
+            Record(
+                out / f"{self.name}_received.csv",
+                [(h.helicsInputGetTarget(i), h.helicsInputGetExtractionUnits(i)) for i in self.inputs.values()],
+            )
+            if self.inputs
+            else None
+        )
         self.watchdog = Watchdog(self.fed, self.name, args.wall_limit, args.stall_timeout, args.join_timeout)
         self.watchdog.start()
 
@@ -110,8 +117,10 @@ class Federate:
 
     def _granted(self, requested, granted):
         if granted != requested:
-            raise FederationEnded(f"granted t={granted:g} s instead of t={requested:g} s: the broker ended the "
-                                  f"co-simulation (its --maxcosimduration, or a lost connection)")
+            raise FederationEnded(
+                f"granted t={granted:g} s instead of t={requested:g} s: the broker ended the "
+                f"co-simulation (its --maxcosimduration, or a lost connection)"
+            )
         self.t = granted
         self.watchdog.mark("computing", f"its step at t={granted:g} s")
         if self.args.fail_at is not None and granted >= self.args.fail_at:

@@ -16,6 +16,7 @@ it to 0.890 pu (the benchmark already has Bus 4 at 0.951 pu); at Bus 1 every com
 0/64 MW wind and 0/60 MW hub keeps all buses within 0.951-1.044 pu and lines below 79 %.
 Records <out>/grid_published.csv and <out>/grid_received.csv; log to stderr, report to stdout.
 """
+
 import time
 
 from aem_electrolyser.cli import did_you_mean, quiet_on_closed_stdout, writable_folder
@@ -35,8 +36,10 @@ def grid(bus_name=HOST_BUS):
     net = pn.create_cigre_network_hv()
     matches = net.bus.index[net.bus.name == bus_name]
     if len(matches) != 1:
-        raise ValueError(f"{bus_name!r} is not a bus of the CIGRE HV grid ({', '.join(net.bus.name)})"
-                         f"{did_you_mean(bus_name, list(net.bus.name))}")
+        raise ValueError(
+            f"{bus_name!r} is not a bus of the CIGRE HV grid ({', '.join(net.bus.name)})"
+            f"{did_you_mean(bus_name, list(net.bus.name))}"
+        )
     bus = int(matches[0])
     return net, pp.create_sgen(net, bus, p_mw=0.0, name="wind"), pp.create_load(net, bus, p_mw=0.0, name="hub"), bus
 
@@ -73,9 +76,11 @@ def main():
             solving += time.perf_counter() - start
             fed.publish(t, voltage=net.res_bus.at[bus, "vm_pu"], slackPower=net.res_ext_grid.p_mw.sum() * 1e6)
         elapsed, vmin = fed.elapsed(), net.res_bus.vm_pu.min()
-    print(f"grid: {args.duration} s simulated in {elapsed:.1f} s (load flows {solving:.1f} s), {args.bus} at the end "
-          f"{net.res_bus.at[bus, 'vm_pu']:.4f} pu (lowest bus {vmin:.4f} pu); wrote {args.out / 'grid_published.csv'}",
-          file=report)
+    print(
+        f"grid: {args.duration} s simulated in {elapsed:.1f} s (load flows {solving:.1f} s), {args.bus} at the end "
+        f"{net.res_bus.at[bus, 'vm_pu']:.4f} pu (lowest bus {vmin:.4f} pu); wrote {args.out / 'grid_published.csv'}",
+        file=report,
+    )
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ grid/voltage [pu] is recorded, not used. The sequence is aem_electrolyser.exampl
 are those of the FMU driven alone with the same reference. Records <out>/hub_published.csv and
 <out>/hub_received.csv; the log (the FMU's messages among it) goes to stderr, a report to stdout.
 """
+
 import math
 
 from fmpy import read_model_description
@@ -40,19 +41,32 @@ def kg_per_nl(fmu):
 def main():
     p = options.parser(__doc__)
     add_fmu_option(p)
-    p.add_argument("--modules", "--n-modules", dest="n_modules", type=positive(int), default=N_MODULES,
-                   help=f"modules in the hub [default: {N_MODULES}]")
-    p.add_argument("--dispatch", type=one_of(sorted(DISPATCHES)), default="equal",
-                   help="equal (every module the same share, stay at the minimum) or sequential (as few "
-                        "modules as possible, the others in standby) [default: equal]")
+    p.add_argument(
+        "--modules",
+        "--n-modules",
+        dest="n_modules",
+        type=positive(int),
+        default=N_MODULES,
+        help=f"modules in the hub [default: {N_MODULES}]",
+    )
+    p.add_argument(
+        "--dispatch",
+        type=one_of(sorted(DISPATCHES)),
+        default="equal",
+        help="equal (every module the same share, stay at the minimum) or sequential (as few "
+        "modules as possible, the others in standby) [default: equal]",
+    )
     args, helics_args = options.parse(p)
     args.fmu = resolve_fmu(p, args)
     writable_folder(args.out)
     report = report_stream()
     kg = kg_per_nl(args.fmu)
-    with Federate(options.HERE / "hub.json", args, helics_args) as fed, \
-            HubFMU(args.fmu, instance_name="hub", nModules=args.n_modules, powerInput=True,
-                   **DISPATCHES[args.dispatch]) as hub:
+    with (
+        Federate(options.HERE / "hub.json", args, helics_args) as fed,
+        HubFMU(
+            args.fmu, instance_name="hub", nModules=args.n_modules, powerInput=True, **DISPATCHES[args.dispatch]
+        ) as hub,
+    ):
         fed.enter_executing()
         for t in fed.times():
             u = fed.receive(t)
@@ -67,9 +81,11 @@ def main():
             fed.publish(t, hubPower=power, hubEnergy=energy, hubH2Produced=h2 * kg, hubH2MassFlow=h2_flow)
         elapsed = fed.elapsed()
         fed.log(f"hub energy {energy / 3.6e9:.3f} MWh, hydrogen {h2 * kg:.1f} kg")
-    print(f"hub: {args.duration} s simulated in {elapsed:.1f} s ({args.n_modules} modules, {args.dispatch} "
-          f"dispatch): {energy / 3.6e9:.3f} MWh, {h2 * kg:.1f} kg H2; wrote {args.out / 'hub_published.csv'}",
-          file=report)
+    print(
+        f"hub: {args.duration} s simulated in {elapsed:.1f} s ({args.n_modules} modules, {args.dispatch} "
+        f"dispatch): {energy / 3.6e9:.3f} MWh, {h2 * kg:.1f} kg H2; wrote {args.out / 'hub_published.csv'}",
+        file=report,
+    )
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ can be matched with the same column of its publisher's record. Values are writte
 repr (shortest round trip), so reading them back with float() gives the very bits sent; a row
 is flushed as soon as it is written, so a federate that dies leaves what it had.
 """
+
 import csv
 
 

@@ -19,6 +19,7 @@ A bar shows the simulated seconds the grid, the last federate of every step, has
 federate that fails ends the command with one line naming it and the reason from its log (exit
 status 1); a bad argument is refused before anything starts (exit status 2).
 """
+
 import argparse
 import json
 import os
@@ -48,12 +49,18 @@ BROKER_GRACE = 30.0  # s the broker outlives the federates' wall-clock limit (th
 BACKSTOP = 90.0  # s after the wall-clock limit the runner and everything it started are killed
 POLL = 0.2  # s between looks at the records
 #: the names of a run's files in its folder (removed before a run, so that none is a stale one)
-RESULTS = ("federation.json", "runner.log", "summary.json", "helics.png",
-           *(f"{n}.log" for n in ("broker", *FEDERATES)),
-           *(f"{n}_{kind}.csv" for n in FEDERATES for kind in ("published", "received")))
+RESULTS = (
+    "federation.json",
+    "runner.log",
+    "summary.json",
+    "helics.png",
+    *(f"{n}.log" for n in ("broker", *FEDERATES)),
+    *(f"{n}_{kind}.csv" for n in FEDERATES for kind in ("published", "received")),
+)
 
 
 # --- the arguments -----------------------------------------------------------------------------
+
 
 def port_number(text):
     """A type for the broker's port: the first of PORTS ports on 127.0.0.1."""
@@ -88,8 +95,10 @@ def choose_port(parser, port):
     DEFAULT_PORT on (two federations on one machine each get their own)."""
     if port is not None:
         if not ports_free(port):
-            parser.error(f"argument --port: a port of {port} to {port + PORTS - 1} on 127.0.0.1 is in use "
-                         f"(another federation?); give another --port")
+            parser.error(
+                f"argument --port: a port of {port} to {port + PORTS - 1} on 127.0.0.1 is in use "
+                f"(another federation?); give another --port"
+            )
         return port
     for port in range(DEFAULT_PORT, 65535 - PORTS, 20):
         if ports_free(port):
@@ -101,12 +110,15 @@ def helics_command():
     """helics-cli's `helics`, beside this Python."""
     helics = Path(sys.executable).parent / "helics"
     if not helics.is_file():
-        sys.exit(f"{cli.program_name()}: error: {helics} is missing: helics-cli comes with the [helics] extra: "
-                 f"pip install 'aem-electrolyser[helics]'")
+        sys.exit(
+            f"{cli.program_name()}: error: {helics} is missing: helics-cli comes with the [helics] extra: "
+            f"pip install 'aem-electrolyser[helics]'"
+        )
     return helics
 
 
 # --- the runner file ---------------------------------------------------------------------------
+
 
 def with_options(words, values):
     """The command line `words` with each `--name=value` of `values` ({name: value}) in place of
@@ -130,13 +142,22 @@ def option_value(words, name, default=None):
 def runner_file(args, port, key):
     """The packaged runner file with this run's values: {federation}, as helics-cli reads it."""
     runner = json.loads(TEMPLATE.read_text())
-    common = {"duration": args.duration, "brokerport": port, "brokerkey": key, "out": ".",
-              "wall-limit": f"{args.wall_limit:g}"}
+    common = {
+        "duration": args.duration,
+        "brokerport": port,
+        "brokerkey": key,
+        "out": ".",
+        "wall-limit": f"{args.wall_limit:g}",
+    }
     if args.stall_timeout is not None:
         common["stall-timeout"] = f"{args.stall_timeout:g}"
     values = {
-        "broker": {"port": port, "brokerkey": key, "maxcosimduration": f"{args.wall_limit:g}s",
-                   "wall-limit": f"{args.wall_limit + BROKER_GRACE:g}"},
+        "broker": {
+            "port": port,
+            "brokerkey": key,
+            "maxcosimduration": f"{args.wall_limit:g}s",
+            "wall-limit": f"{args.wall_limit + BROKER_GRACE:g}",
+        },
         "wind": {**common, "seed": args.seed},
         "hub": {**common, "n-modules": args.modules, "dispatch": args.dispatch, "fmu": args.fmu.resolve()},
         "grid": {**common, **({} if args.fail_at is None else {"fail-at": f"{args.fail_at:g}"})},
@@ -151,6 +172,7 @@ def runner_file(args, port, key):
 
 
 # --- running -----------------------------------------------------------------------------------
+
 
 class Rows:
     """The rows of a record written so far (read on from where the last look ended)."""
@@ -176,11 +198,18 @@ def run_federation(args, out, path):
     env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
     rows = Rows(out / "grid_published.csv")
     start = time.monotonic()
-    with open(out / "runner.log", "w") as log, \
-            cli.progress(total=args.duration, desc="simulated", unit="s", quiet=args.quiet) as bar:
-        runner = subprocess.Popen([str(helics_command()), "run", f"--path={path}", "--no-kill-on-error"],
-                                  cwd=out, env=env, stdout=log, stderr=subprocess.STDOUT,
-                                  start_new_session=True)  # one process group: the runner and what it starts
+    with (
+        open(out / "runner.log", "w") as log,
+        cli.progress(total=args.duration, desc="simulated", unit="s", quiet=args.quiet) as bar,
+    ):
+        runner = subprocess.Popen(
+            [str(helics_command()), "run", f"--path={path}", "--no-kill-on-error"],
+            cwd=out,
+            env=env,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )  # one process group: the runner and what it starts
         try:
             while True:
                 try:
@@ -192,8 +221,10 @@ def run_federation(args, out, path):
                 if done > bar.n:
                     bar.update(done - bar.n)
                 if time.monotonic() - start > args.wall_limit + BACKSTOP:
-                    raise RuntimeError(f"the federation still runs {args.wall_limit + BACKSTOP:g} s after it "
-                                       f"started (--wall-limit {args.wall_limit:g}): ended; logs in {out}")
+                    raise RuntimeError(
+                        f"the federation still runs {args.wall_limit + BACKSTOP:g} s after it "
+                        f"started (--wall-limit {args.wall_limit:g}): ended; logs in {out}"
+                    )
         except BaseException:  # Ctrl-C, the backstop: end the runner and every process it started
             os.killpg(runner.pid, signal.SIGKILL)
             runner.wait()
@@ -225,8 +256,13 @@ def failure(out, status, output):
     lines = {name: log_end(out / f"{name}.log") for name in failed}
     # the federate whose own error ended the federation (the others were stopped by it), else
     # the broker, whose last line repeats the first error
-    own = [n for n in FEDERATES if n in failed and "by a federation error" not in lines[n]
-           and "watchdog: the federate did not end" not in lines[n]]
+    own = [
+        n
+        for n in FEDERATES
+        if n in failed
+        and "by a federation error" not in lines[n]
+        and "watchdog: the federate did not end" not in lines[n]
+    ]
     first = own[0] if own else "broker" if "broker" in failed else next(iter(failed))
     line = lines[first].removeprefix(f"{first}: ")
     return f"the federation failed: {first} exited with status {failed[first]}: {line} (logs in {out})"
@@ -248,6 +284,7 @@ def check_complete(out, duration):
 
 
 # --- the results -------------------------------------------------------------------------------
+
 
 def table(path):
     """{column header: array} of a record."""
@@ -313,6 +350,7 @@ def report(s):
 def plot(path, r, s):
     """The run as a figure, like aem_electrolyser.mosaik.cigre_scenario's."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -333,8 +371,13 @@ def plot(path, r, s):
     ax[2].plot(tx, 1e3 * (v - v[0]), color="tab:purple", lw=1, label=f"{s['bus']} (from {v[0]:.4f} pu)")
     ax[2].set_ylabel("voltage change [mpu]")
     hub_r = r["hub_published"]
-    ax[3].plot(hub_r["time [s]"] / 60.0 if minutes else hub_r["time [s]"], hub_r["hub/hubH2Produced [kg]"],
-               color="tab:orange", lw=1, label=f"hydrogen produced ({s['hydrogen [kg]']:.1f} kg)")
+    ax[3].plot(
+        hub_r["time [s]"] / 60.0 if minutes else hub_r["time [s]"],
+        hub_r["hub/hubH2Produced [kg]"],
+        color="tab:orange",
+        lw=1,
+        label=f"hydrogen produced ({s['hydrogen [kg]']:.1f} kg)",
+    )
     ax[3].set_ylabel("hydrogen [kg]")
     ax[3].set_xlabel("time [min]" if minutes else "time [s]")
     for a in ax:
@@ -348,28 +391,49 @@ def plot(path, r, s):
 
 # --- the command ---------------------------------------------------------------------------------
 
+
 def main(argv=None):
     parser = cli.CommandLine(description=__doc__)
-    parser.add_argument("--duration", type=cli.positive(int), default=3600,
-                        help="simulated time [s], in 1 s steps [default: 3600]")
+    parser.add_argument(
+        "--duration", type=cli.positive(int), default=3600, help="simulated time [s], in 1 s steps [default: 3600]"
+    )
     cli.add_out_option(parser, Path("out") / "helics", "the runner file, records, logs, summary and figure")
-    parser.add_argument("--modules", type=cli.positive(int), default=N_MODULES,
-                        help=f"modules in the hub [default: {N_MODULES}]")
-    parser.add_argument("--dispatch", type=cli.one_of(sorted(DISPATCHES)), default="equal",
-                        help="equal (every module the same share) or sequential (as few modules as possible, "
-                             "the others in standby) [default: equal]")
+    parser.add_argument(
+        "--modules", type=cli.positive(int), default=N_MODULES, help=f"modules in the hub [default: {N_MODULES}]"
+    )
+    parser.add_argument(
+        "--dispatch",
+        type=cli.one_of(sorted(DISPATCHES)),
+        default="equal",
+        help="equal (every module the same share) or sequential (as few modules as possible, "
+        "the others in standby) [default: equal]",
+    )
     parser.add_argument("--seed", type=cli.non_negative(int), default=1, help="seed of the wind series [default: 1]")
-    parser.add_argument("--port", type=port_number, default=None,
-                        help=f"the broker's port; it and the next {PORTS - 1} must be free on 127.0.0.1 "
-                             f"[default: the first free block from {DEFAULT_PORT} on]")
-    parser.add_argument("--wall-limit", type=cli.positive(float), default=1800.0,
-                        help="wall-clock limit [s] of every federate and of the broker's co-simulation "
-                             "[default: 1800]")
-    parser.add_argument("--stall-timeout", type=cli.positive(float), default=None,
-                        help="no progress for this long [s] ends the federation with a diagnosis "
-                             "[default: the federates', 30]")
-    parser.add_argument("--fail-at", type=cli.non_negative(float), metavar="T",
-                        help="the grid federate raises at simulated time T [s] (to try the failure handling)")
+    parser.add_argument(
+        "--port",
+        type=port_number,
+        default=None,
+        help=f"the broker's port; it and the next {PORTS - 1} must be free on 127.0.0.1 "
+        f"[default: the first free block from {DEFAULT_PORT} on]",
+    )
+    parser.add_argument(
+        "--wall-limit",
+        type=cli.positive(float),
+        default=1800.0,
+        help="wall-clock limit [s] of every federate and of the broker's co-simulation [default: 1800]",
+    )
+    parser.add_argument(
+        "--stall-timeout",
+        type=cli.positive(float),
+        default=None,
+        help="no progress for this long [s] ends the federation with a diagnosis [default: the federates', 30]",
+    )
+    parser.add_argument(
+        "--fail-at",
+        type=cli.non_negative(float),
+        metavar="T",
+        help="the grid federate raises at simulated time T [s] (to try the failure handling)",
+    )
     cli.add_fmu_option(parser)
     args = parser.parse_args(argv)
     require("helics", parser.prog)
@@ -386,8 +450,12 @@ def main(argv=None):
     path = out / "federation.json"
     path.write_text(json.dumps(runner, indent=2) + "\n")
     grid_words = shlex.split(next(f["exec"] for f in runner["federates"] if f["name"] == "grid"))
-    run = {"modules": args.modules, "dispatch": args.dispatch, "seed": args.seed,
-           "bus": option_value(grid_words, "bus", "Bus 1")}
+    run = {
+        "modules": args.modules,
+        "dispatch": args.dispatch,
+        "seed": args.seed,
+        "bus": option_value(grid_words, "bus", "Bus 1"),
+    }
     cli.say(args, f"HELICS federation: {args.duration} s simulated, broker at 127.0.0.1:{port}, results in {out}")
 
     status, output, wall = run_federation(args, out, path)
@@ -404,8 +472,11 @@ def main(argv=None):
     plot(out / "helics.png", r, summary)
     for line in report(summary):
         cli.say(args, line)
-    cli.say(args, f"wrote {out}: summary.json, helics.png, the records <name>_published.csv and "
-                  f"<name>_received.csv, the logs <name>.log and runner.log, federation.json")
+    cli.say(
+        args,
+        f"wrote {out}: summary.json, helics.png, the records <name>_published.csv and "
+        f"<name>_received.csv, the logs <name>.log and runner.log, federation.json",
+    )
     return 0
 
 

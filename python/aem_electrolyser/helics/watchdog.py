@@ -18,6 +18,7 @@ in a HELICS call); the watchdog acts when
 Acting means a HELICS global error with the diagnosis (every federate's pending call then raises
 it), and, if the main thread has not ended GRACE seconds later, ending the process (status 3).
 """
+
 import os
 import sys
 import threading
@@ -73,8 +74,10 @@ class Watchdog:
                     except h.HelicsException:
                         state = {}
                     joined = [f["attributes"]["name"] for f in state.get("federates", [])]
-                    return self._fire(f"{self.name}: the federation has not started after {idle:.0f} s ({what}); "
-                                      f"joined: {', '.join(joined) or 'unknown (the broker does not answer)'}")
+                    return self._fire(
+                        f"{self.name}: the federation has not started after {idle:.0f} s ({what}); "
+                        f"joined: {', '.join(joined) or 'unknown (the broker does not answer)'}"
+                    )
                 continue
             if idle < self.stall_timeout:
                 continue
@@ -82,8 +85,10 @@ class Watchdog:
                 return self._fire(f"{self.name}: {what} has not finished after {idle:.0f} s (--stall-timeout)")
             if probed == since:
                 if idle >= 2 * self.stall_timeout:
-                    return self._fire(f"{self.name}: no progress for {idle:.0f} s ({what}); every federate "
-                                      f"answers, so one of them is stuck: {status}")
+                    return self._fire(
+                        f"{self.name}: no progress for {idle:.0f} s ({what}); every federate "
+                        f"answers, so one of them is stuck: {status}"
+                    )
                 continue
             try:
                 silent, status = self._probe()
@@ -91,9 +96,11 @@ class Watchdog:
                 continue
             probed = since
             if silent:
-                return self._fire(f"{self.name}: no progress for {idle:.0f} s ({what}): {', '.join(silent)} "
-                                  f"{'does' if len(silent) == 1 else 'do'} not answer: its process has died "
-                                  f"or lost its connection")
+                return self._fire(
+                    f"{self.name}: no progress for {idle:.0f} s ({what}): {', '.join(silent)} "
+                    f"{'does' if len(silent) == 1 else 'do'} not answer: its process has died "
+                    f"or lost its connection"
+                )
 
     def _probe(self):
         """(names of federates that do not answer, their time status as text)."""
@@ -149,6 +156,9 @@ class Watchdog:
         except Exception as e:  # the federate may be ending already
             print(f"{self.name}: watchdog: could not raise the global error ({e})", file=sys.stderr, flush=True)
         if not self._done.wait(GRACE):
-            print(f"{self.name}: watchdog: the federate did not end within {GRACE:g} s of the error: exiting",
-                  file=sys.stderr, flush=True)
+            print(
+                f"{self.name}: watchdog: the federate did not end within {GRACE:g} s of the error: exiting",
+                file=sys.stderr,
+                flush=True,
+            )
             os._exit(EXIT_STATUS)

@@ -13,6 +13,7 @@ that goes silent later for one that disconnected, not for a lost one.
 Records <out>/wind_published.csv and <out>/wind_received.csv; its log goes to stderr, a one-line
 report to stdout.
 """
+
 from aem_electrolyser.cli import non_negative, quiet_on_closed_stdout, writable_folder
 from aem_electrolyser.helics import options
 from aem_electrolyser.helics.federate import Federate, report_stream
@@ -35,8 +36,11 @@ def main():
             fed.publish(t, power=wind[int(t)])
         elapsed = fed.elapsed()
         fed.log(f"published {len(wind)} values, mean {wind.mean() / 1e6:.3f} MW")
-    print(f"wind: {args.duration} s simulated in {elapsed:.1f} s, mean power "
-          f"{wind.mean() / 1e6:.2f} MW; wrote {args.out / 'wind_published.csv'}", file=report)
+    print(
+        f"wind: {args.duration} s simulated in {elapsed:.1f} s, mean power "
+        f"{wind.mean() / 1e6:.2f} MW; wrote {args.out / 'wind_published.csv'}",
+        file=report,
+    )
 
 
 if __name__ == "__main__":

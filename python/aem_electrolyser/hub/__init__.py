@@ -1,5 +1,6 @@
 """The hub FMU driven from Python through fmpy: `HubFMU` steps it by name (the examples, mosaik
 and HELICS), `HubRunner` runs it through a test signal fast (the reserve prequalification)."""
+
 from .driver import HubFMU
 from .runner import Hub, HubRunner
 

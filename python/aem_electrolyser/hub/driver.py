@@ -10,6 +10,7 @@ A call the FMU refuses raises hub.messages.FmuError with the FMU's own message (
 in hub.messages.MESSAGES, not printed). Parameters and inputs are set by name with the setter of their FMI type (Real, Integer or
 Enumeration, Boolean), so the FMU's variable names are the only interface.
 """
+
 import shutil
 
 from fmpy import extract, read_model_description
@@ -29,8 +30,12 @@ class HubFMU:
         if missing:
             raise ValueError(f"{fmu_path} has no hub variables {missing}: an older FMU?")
         self._unzipdir = extract(str(fmu_path))
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=self._unzipdir,
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance_name)
+        self.fmu = FMU2Slave(
+            guid=md.guid,
+            unzipDirectory=self._unzipdir,
+            modelIdentifier=md.coSimulation.modelIdentifier,
+            instanceName=instance_name,
+        )
         instantiate(self.fmu)
         self.fmu.setupExperiment(startTime=start_time)
         self.time = start_time
@@ -57,8 +62,12 @@ class HubFMU:
         out = []
         for name in names:
             v = self._vars[name]
-            getter = {"Real": self.fmu.getReal, "Integer": self.fmu.getInteger,
-                      "Enumeration": self.fmu.getInteger, "Boolean": self.fmu.getBoolean}[v.type]
+            getter = {
+                "Real": self.fmu.getReal,
+                "Integer": self.fmu.getInteger,
+                "Enumeration": self.fmu.getInteger,
+                "Boolean": self.fmu.getBoolean,
+            }[v.type]
             out.append(getter([v.valueReference])[0])
         return out[0] if len(names) == 1 else out
 

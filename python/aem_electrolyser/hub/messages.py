@@ -5,6 +5,7 @@ callback per process (`callbacks()`); the messages are kept here, by text and co
 A call the FMU refuses raises `FmuError` with the FMU's last message: an exception with one
 argument, so that it crosses a process pool (pickling) intact, unlike fmpy's FMICallException.
 """
+
 import ctypes
 import sys
 from contextlib import contextmanager

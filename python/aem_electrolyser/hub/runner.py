@@ -7,6 +7,7 @@ at every t[k] (the state reached with the inputs of the previous interval). The 
 messages (the window's shortfalls, ramp-limited increases) are counted in `messages`, not
 printed.
 """
+
 import ctypes
 import math
 import shutil
@@ -36,8 +37,10 @@ class Hub:
 
     def describe(self) -> str:
         policy = {1: "equal", 2: "sequential", 3: "rotation"}[self.dispatch]
-        return (f"{self.n_modules} modules, {policy} dispatch, baseline {100 * self.baseline:.0f} % of rated power, "
-                f"compensation {'on' if self.compensation else 'off'}")
+        return (
+            f"{self.n_modules} modules, {policy} dispatch, baseline {100 * self.baseline:.0f} % of rated power, "
+            f"compensation {'on' if self.compensation else 'off'}"
+        )
 
 
 class HubRunner:
@@ -48,8 +51,10 @@ class HubRunner:
         self.md = read_model_description(str(self.fmu_path))
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.unzipdir = extract(str(self.fmu_path))
-        start = {name: float(self.vars[name].start) for name in
-                 ("gain", "voltageIntercept", "ohmicResistance", "maxSetpoint", "minSetpoint", "standbyPower")}
+        start = {
+            name: float(self.vars[name].start)
+            for name in ("gain", "voltageIntercept", "ohmicResistance", "maxSetpoint", "minSetpoint", "standbyPower")
+        }
 
         def module_power(u):
             i = start["gain"] * u
@@ -70,8 +75,12 @@ class HubRunner:
     def run(self, t, frequency=None, power_reference=None, parameters=None):
         """hubPower and reserveRequest [W] at every t[k] for the inputs held from t[k]."""
         t = np.asarray(t, float)
-        fmu = FMU2Slave(guid=self.md.guid, unzipDirectory=self.unzipdir,
-                        modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName="prequalification")
+        fmu = FMU2Slave(
+            guid=self.md.guid,
+            unzipDirectory=self.unzipdir,
+            modelIdentifier=self.md.coSimulation.modelIdentifier,
+            instanceName="prequalification",
+        )
         instantiate(fmu)
         try:
             with fmu_words(f"the hub ({self.hub.describe()})"):
@@ -86,10 +95,14 @@ class HubRunner:
     def _run(self, fmu, t, frequency, power_reference, parameters):
         fmu.setupExperiment(startTime=float(t[0]))
         h = self.hub
-        fmu.setInteger([self.vars[n].valueReference for n in ("nModules", "dispatch", "belowMinimum")],
-                       [h.n_modules, h.dispatch, h.below_minimum])
-        fmu.setBoolean([self.vars["powerInput"].valueReference, self.vars["reserveCompensation"].valueReference],
-                       [True, h.compensation])
+        fmu.setInteger(
+            [self.vars[n].valueReference for n in ("nModules", "dispatch", "belowMinimum")],
+            [h.n_modules, h.dispatch, h.below_minimum],
+        )
+        fmu.setBoolean(
+            [self.vars["powerInput"].valueReference, self.vars["reserveCompensation"].valueReference],
+            [True, h.compensation],
+        )
         reals = dict(parameters or {})
         reals["powerReference"] = self.baseline if power_reference is None else float(power_reference[0])
         if frequency is not None:

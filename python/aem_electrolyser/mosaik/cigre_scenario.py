@@ -43,6 +43,7 @@ bus. So Bus 1: a strong bus, where a wind farm and an electrolyser absorbing it 
 Writes <out>/mosaik_cigre.csv (a row per sample t with the values at t, hub energy and H2 accumulated over
 [0, t]; units in the headers) and mosaik_cigre.png, then prints a summary.
 """
+
 import copy
 import csv
 import sys
@@ -87,10 +88,16 @@ class CigreGrid(PandapowerSimulator):
       that the bus's inputs of the same names set;
     * runpp with recycle (only bus P/Q change) and init from the previous results.
     """
-    TOTALS = {"P_load[MW]": ("res_load", "p_mw"), "P_sgen[MW]": ("res_sgen", "p_mw"),
-              "P_gen[MW]": ("res_gen", "p_mw"), "P_shunt[MW]": ("res_shunt", "p_mw"),
-              "P_ext_grid[MW]": ("res_ext_grid", "p_mw"), "P_loss_line[MW]": ("res_line", "pl_mw"),
-              "P_loss_trafo[MW]": ("res_trafo", "pl_mw")}
+
+    TOTALS = {
+        "P_load[MW]": ("res_load", "p_mw"),
+        "P_sgen[MW]": ("res_sgen", "p_mw"),
+        "P_gen[MW]": ("res_gen", "p_mw"),
+        "P_shunt[MW]": ("res_shunt", "p_mw"),
+        "P_ext_grid[MW]": ("res_ext_grid", "p_mw"),
+        "P_loss_line[MW]": ("res_line", "pl_mw"),
+        "P_loss_trafo[MW]": ("res_trafo", "pl_mw"),
+    }
     BUS_ELEMENT = {"P_load[MW]": "load", "P_gen[MW]": "sgen"}
 
     def __init__(self):
@@ -106,8 +113,7 @@ class CigreGrid(PandapowerSimulator):
             for attr, values in data.items():
                 a = spec.input_attr_specs[attr]
                 self._net[a.target_elem or spec.elem].at[a.idx_fn(idx, self), a.column] = a.aggregator(values.values())
-        pp.runpp(self._net, numba=pp.NUMBA_INSTALLED, init="results",
-                 recycle=dict(bus_pq=True, trafo=False, gen=False))
+        pp.runpp(self._net, numba=pp.NUMBA_INSTALLED, init="results", recycle=dict(bus_pq=True, trafo=False, gen=False))
         return time + self._step_size if self._step_size else None
 
     def get_entity_data(self, eid, attrs):
@@ -153,9 +159,12 @@ def hosting_check(bus_name=HOST_BUS, hub_mw=(0.0, 60.0), wind_mw=(0.0, 64.0)):
             pp.create_load(net, bus, p_mw=load)
             pp.create_sgen(net, bus, p_mw=gen)
             pp.runpp(net, numba=pp.NUMBA_INSTALLED)
-            worst = [min(worst[0], net.res_bus.vm_pu.min()), max(worst[1], net.res_bus.vm_pu.max()),
-                     max(worst[2], net.res_line.loading_percent.max()),
-                     max(worst[3], net.res_trafo.loading_percent.max())]
+            worst = [
+                min(worst[0], net.res_bus.vm_pu.min()),
+                max(worst[1], net.res_bus.vm_pu.max()),
+                max(worst[2], net.res_line.loading_percent.max()),
+                max(worst[3], net.res_trafo.loading_percent.max()),
+            ]
     return tuple(float(x) for x in worst)
 
 
@@ -183,14 +192,21 @@ def simulate(fmu=None, duration=3600, seed=1, dispatch="equal", quiet=True):
     t, wind = wind_series(duration, seed)
     net = pn.create_cigre_network_hv()
     host = int(net.bus.index[net.bus.name == HOST_BUS][0])
-    sim_config = {"Wind": {"python": "mosaik_csv:CSV"}, "AEM": {"python": "aem_electrolyser.mosaik.simulator:AemSimulator"},
-                  "Grid": PythonStarter(CigreGrid), "Recorder": PythonStarter(Recorder)}
-    with tempfile.TemporaryDirectory() as tmp, \
-            mosaik.World(sim_config, time_resolution=1.0, skip_greetings=True, configure_logging=False) as world:
+    sim_config = {
+        "Wind": {"python": "mosaik_csv:CSV"},
+        "AEM": {"python": "aem_electrolyser.mosaik.simulator:AemSimulator"},
+        "Grid": PythonStarter(CigreGrid),
+        "Recorder": PythonStarter(Recorder),
+    }
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        mosaik.World(sim_config, time_resolution=1.0, skip_greetings=True, configure_logging=False) as world,
+    ):
         write_wind_csv(Path(tmp) / "wind.csv", t, wind)
         wind_farm = world.start("Wind", sim_id="Wind", sim_start=START, datafile=str(Path(tmp) / "wind.csv")).Wind()
         hub = world.start("AEM", sim_id="AEM", fmu=str(fmu), step_size=float(STEP)).Hub(
-            nModules=N_MODULES, powerInput=True, **DISPATCHES[dispatch])
+            nModules=N_MODULES, powerInput=True, **DISPATCHES[dispatch]
+        )
         grid_sim = world.start("Grid", sim_id="Grid", step_size=STEP)
         grid = grid_sim.Grid(net=net)
         by_id = {e.eid: e for e in grid.children}
@@ -231,17 +247,31 @@ def kg_per_nl(fmu):
 
 
 def write_csv(path, r, kg):
-    columns = {"time [s]": r["time"], "wind power [MW]": r["wind in grid"],
-               "hub power reference [MW]": r["powerReference"] / 1e6, "hub power [MW]": r["hubPower"] / 1e6,
-               "hub load in grid [MW]": r["hub load in grid"], "hub energy [MWh]": r["hubEnergy"] / 3.6e9,
-               "hub H2 [kg]": r["hubH2Produced"] * kg, "modules running [1]": r["modulesRunning"],
-               "modules standby [1]": r["modulesStandby"]}
+    columns = {
+        "time [s]": r["time"],
+        "wind power [MW]": r["wind in grid"],
+        "hub power reference [MW]": r["powerReference"] / 1e6,
+        "hub power [MW]": r["hubPower"] / 1e6,
+        "hub load in grid [MW]": r["hub load in grid"],
+        "hub energy [MWh]": r["hubEnergy"] / 3.6e9,
+        "hub H2 [kg]": r["hubH2Produced"] * kg,
+        "modules running [1]": r["modulesRunning"],
+        "modules standby [1]": r["modulesStandby"],
+    }
     columns.update({f"vm {bus} [pu]": v for bus, v in r["vm"].items()})
     columns.update({f"loading {line} [%]": v for line, v in r["loading"].items()})
-    columns.update({"slack power [MW]": r["P_ext_grid[MW]"], "loads [MW]": r["P_load[MW]"],
-                    "static generators [MW]": r["P_sgen[MW]"], "generators [MW]": r["P_gen[MW]"],
-                    "shunts [MW]": r["P_shunt[MW]"], "line losses [MW]": r["P_loss_line[MW]"],
-                    "trafo losses [MW]": r["P_loss_trafo[MW]"], "max trafo loading [%]": r["loading_trafo_max[%]"]})
+    columns.update(
+        {
+            "slack power [MW]": r["P_ext_grid[MW]"],
+            "loads [MW]": r["P_load[MW]"],
+            "static generators [MW]": r["P_sgen[MW]"],
+            "generators [MW]": r["P_gen[MW]"],
+            "shunts [MW]": r["P_shunt[MW]"],
+            "line losses [MW]": r["P_loss_line[MW]"],
+            "trafo losses [MW]": r["P_loss_trafo[MW]"],
+            "max trafo loading [%]": r["loading_trafo_max[%]"],
+        }
+    )
     with open(path, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(columns)
@@ -251,6 +281,7 @@ def write_csv(path, r, kg):
 
 def plot(path, r, dispatch):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -259,10 +290,21 @@ def plot(path, r, dispatch):
     ax[0].plot(tm, r["wind in grid"], color="tab:gray", lw=1, label="wind farm (static generator)")
     ax[0].plot(tm, r["hub load in grid"], color="tab:blue", lw=1, label=f"hub (load), {dispatch} dispatch")
     ax[0].set_ylabel("power [MW]")
-    ax[1].plot(tm, r["wind in grid"] - r["hub load in grid"], color="tab:green", lw=1,
-               label=f"wind - hub at {HOST_BUS} (export)")
-    ax[1].plot(tm, r["P_ext_grid[MW]"] - r["P_ext_grid[MW]"][0], color="tab:red", lw=1, ls="--",
-               label=f"slack power - {r['P_ext_grid[MW]'][0]:.1f} MW")
+    ax[1].plot(
+        tm,
+        r["wind in grid"] - r["hub load in grid"],
+        color="tab:green",
+        lw=1,
+        label=f"wind - hub at {HOST_BUS} (export)",
+    )
+    ax[1].plot(
+        tm,
+        r["P_ext_grid[MW]"] - r["P_ext_grid[MW]"][0],
+        color="tab:red",
+        lw=1,
+        ls="--",
+        label=f"slack power - {r['P_ext_grid[MW]'][0]:.1f} MW",
+    )
     ax[1].set_ylabel("power [MW]")
     for bus in (HOST_BUS, "Bus 7", "Bus 5", "Bus 4"):
         v = r["vm"][bus]
@@ -300,15 +342,19 @@ def run(fmu=None, duration=3600, seed=1, dispatch="equal", out=None, verbose=Tru
         low = min(vmin, key=vmin.get)
         lmax = {line: v.max() for line, v in r["loading"].items()}
         high = max(lmax, key=lmax.get)
-        print(f"{duration:.0f} s at 1 s in mosaik {mosaik.__version__} ({wall:.1f} s wall): wind farm "
-              f"{r['wind series'][:-1].sum() / 3.6e9:.2f} MWh, hub of {N_MODULES} modules ({dispatch}) "
-              f"{(r['hubEnergy'][-1] - r['hubEnergy'][0]) / 3.6e9:.2f} MWh, "
-              f"{(r['hubH2Produced'][-1] - r['hubH2Produced'][0]) * kg:.1f} kg H2")
+        print(
+            f"{duration:.0f} s at 1 s in mosaik {mosaik.__version__} ({wall:.1f} s wall): wind farm "
+            f"{r['wind series'][:-1].sum() / 3.6e9:.2f} MWh, hub of {N_MODULES} modules ({dispatch}) "
+            f"{(r['hubEnergy'][-1] - r['hubEnergy'][0]) / 3.6e9:.2f} MWh, "
+            f"{(r['hubH2Produced'][-1] - r['hubH2Produced'][0]) * kg:.1f} kg H2"
+        )
         export = r["wind in grid"] - r["hub load in grid"]
         slack = r["P_ext_grid[MW]"]
-        print(f"{HOST_BUS} of the CIGRE HV grid: wind - hub {export.min():.2f} to {export.max():.2f} MW, slack "
-              f"{slack.min():.1f} to {slack.max():.1f} MW; lowest voltage {vmin[low]:.4f} pu ({low}), "
-              f"highest line loading {lmax[high]:.1f} % ({high})")
+        print(
+            f"{HOST_BUS} of the CIGRE HV grid: wind - hub {export.min():.2f} to {export.max():.2f} MW, slack "
+            f"{slack.min():.1f} to {slack.max():.1f} MW; lowest voltage {vmin[low]:.4f} pu ({low}), "
+            f"highest line loading {lmax[high]:.1f} % ({high})"
+        )
         if out is not None:
             print(f"wrote {out.with_suffix('.csv')} and {out.with_suffix('.png')}")
     return r, wall
@@ -317,11 +363,16 @@ def run(fmu=None, duration=3600, seed=1, dispatch="equal", out=None, verbose=Tru
 def main(argv=None):
     parser = cli.CommandLine(description=__doc__)
     cli.add_fmu_option(parser)
-    parser.add_argument("--duration", type=cli.positive(int), default=3600,
-                        help="simulated seconds, at least 2 [default: 3600]")
+    parser.add_argument(
+        "--duration", type=cli.positive(int), default=3600, help="simulated seconds, at least 2 [default: 3600]"
+    )
     parser.add_argument("--seed", type=int, default=1, help="wind series seed [default: 1]")
-    parser.add_argument("--dispatch", type=cli.one_of(list(DISPATCHES)), default="equal",
-                        help=f"{' or '.join(DISPATCHES)} [default: equal]")
+    parser.add_argument(
+        "--dispatch",
+        type=cli.one_of(list(DISPATCHES)),
+        default="equal",
+        help=f"{' or '.join(DISPATCHES)} [default: equal]",
+    )
     cli.add_out_option(parser, "out", "mosaik_cigre.csv and mosaik_cigre.png")
     args = parser.parse_args(argv)
     # mosaik's and the simulator's log (loguru): warnings on stderr, everything with --debug

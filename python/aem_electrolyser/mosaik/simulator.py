@@ -32,6 +32,7 @@ sum if its unit is W, an error otherwise; an input given no value is held.
 The FMU's log goes to loguru (stderr, as mosaik's own log), never to stdout. A call the FMU
 refuses (fmi2Error) raises `FMUError` naming the entity, the FMI function and the FMU's message.
 """
+
 import itertools
 import math
 import re
@@ -71,8 +72,14 @@ def _route(_env, instance_name, status, category, message):
         if status >= 2:  # a refusal: the FMUError it raises carries the text (one report, not two)
             logger.debug("FMU {} refused: {}", name, text)
             return
-    logger.log(LEVEL.get(status, "ERROR"), "FMU {} [{}] {}: {}", name, STATUS[status] if status < 6 else status,
-               category.decode(errors="replace"), text)
+    logger.log(
+        LEVEL.get(status, "ERROR"),
+        "FMU {} [{}] {}: {}",
+        name,
+        STATUS[status] if status < 6 else status,
+        category.decode(errors="replace"),
+        text,
+    )
 
 
 _CALLBACKS = fmi2CallbackFunctions()
@@ -99,11 +106,19 @@ def unit_of(v):
 
 def _model(variables, params, attrs):
     names = params + attrs
-    return {"public": True, "params": params, "attrs": attrs, "any_inputs": False,
-            "units": {n: unit_of(variables[n]) for n in names},
-            "descriptions": {n: variables[n].description or "" for n in names},
-            "enumerations": {n: {i.name: int(i.value) for i in variables[n].declaredType.items}
-                             for n in names if variables[n].type == "Enumeration"}}
+    return {
+        "public": True,
+        "params": params,
+        "attrs": attrs,
+        "any_inputs": False,
+        "units": {n: unit_of(variables[n]) for n in names},
+        "descriptions": {n: variables[n].description or "" for n in names},
+        "enumerations": {
+            n: {i.name: int(i.value) for i in variables[n].declaredType.items}
+            for n in names
+            if variables[n].type == "Enumeration"
+        },
+    }
 
 
 def make_meta(md):
@@ -113,9 +128,14 @@ def make_meta(md):
     inputs = [n for n, x in v.items() if x.causality == "input"]
     outputs = [n for n, x in v.items() if x.causality == "output"]
     module_params = [n for n in params if n not in HUB_ONLY]
-    return {"api_version": "3.0", "type": "time-based", "models": {
-        "Hub": _model(v, params, inputs + outputs),
-        "Module": _model(v, module_params, [n for n in inputs if n != "powerReference"] + outputs)}}
+    return {
+        "api_version": "3.0",
+        "type": "time-based",
+        "models": {
+            "Hub": _model(v, params, inputs + outputs),
+            "Module": _model(v, module_params, [n for n in inputs if n != "powerReference"] + outputs),
+        },
+    }
 
 
 class _Instance:
@@ -124,8 +144,9 @@ class _Instance:
     def __init__(self, eid, model, name, md, unzipdir, variables, parameters, logging_on):
         self.eid, self.model, self.name, self.vars = eid, model, name, variables
         self.messages, self.time, self.initialized = [], None, False
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+        self.fmu = FMU2Slave(
+            guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name
+        )
         _register_logger()
         _LIVE[name] = self
         try:
@@ -145,10 +166,13 @@ class _Instance:
         try:
             return fn(*args, **kwargs)
         except FMICallException as e:
-            told = "; ".join(text.removeprefix(f"{e.function}: ") for status, text in self.messages
-                             if status >= 2) or "no message from the FMU"
-            raise FMUError(f"{self.eid}: {e.function} failed ({STATUS[e.status] if e.status < 6 else e.status}): "
-                           f"{told}") from None
+            told = (
+                "; ".join(text.removeprefix(f"{e.function}: ") for status, text in self.messages if status >= 2)
+                or "no message from the FMU"
+            )
+            raise FMUError(
+                f"{self.eid}: {e.function} failed ({STATUS[e.status] if e.status < 6 else e.status}): {told}"
+            ) from None
         except Exception as e:  # instantiate failing, a wrong type
             told = "; ".join(text.removeprefix(f"{what}: ") for status, text in self.messages if status >= 2)
             raise FMUError(f"{self.eid}: {what}: {told or e}") from e
@@ -163,16 +187,25 @@ class _Instance:
         return value
 
     def set(self, values):
-        setters = {"Real": (self.fmu.setReal, float), "Integer": (self.fmu.setInteger, int),
-                   "Enumeration": (self.fmu.setInteger, int), "Boolean": (self.fmu.setBoolean, bool),
-                   "String": (self.fmu.setString, str)}
+        setters = {
+            "Real": (self.fmu.setReal, float),
+            "Integer": (self.fmu.setInteger, int),
+            "Enumeration": (self.fmu.setInteger, int),
+            "Boolean": (self.fmu.setBoolean, bool),
+            "String": (self.fmu.setString, str),
+        }
         for name, value in values.items():
             setter, cast = setters[self.vars[name].type]
             self.call(f"set {name}", setter, [self.vars[name].valueReference], [cast(self._value(name, value))])
 
     def get(self, names):
-        getters = {"Real": self.fmu.getReal, "Integer": self.fmu.getInteger, "Enumeration": self.fmu.getInteger,
-                   "Boolean": self.fmu.getBoolean, "String": self.fmu.getString}
+        getters = {
+            "Real": self.fmu.getReal,
+            "Integer": self.fmu.getInteger,
+            "Enumeration": self.fmu.getInteger,
+            "Boolean": self.fmu.getBoolean,
+            "String": self.fmu.getString,
+        }
         out = {}
         for kind, getter in getters.items():
             group = [n for n in names if self.vars[n].type == kind]
@@ -191,8 +224,9 @@ class _Instance:
             self.initialized, self.time = True, t
             return
         if t > self.time:
-            self.call("doStep", self.fmu.doStep, currentCommunicationPoint=self.time,
-                      communicationStepSize=t - self.time)
+            self.call(
+                "doStep", self.fmu.doStep, currentCommunicationPoint=self.time, communicationStepSize=t - self.time
+            )
             self.time = t
         self.set(inputs)
 
@@ -224,8 +258,9 @@ class AemSimulator(mosaik_api_v3.Simulator):
             step_size = self.md.defaultExperiment.stepSize if self.md.defaultExperiment else 1.0
         ticks = float(step_size) / self.resolution
         if not (ticks >= 1 and math.isclose(ticks, round(ticks), rel_tol=0, abs_tol=1e-9)):
-            raise ValueError(f"step_size {step_size} s is not a positive multiple of time_resolution "
-                             f"{self.resolution} s")
+            raise ValueError(
+                f"step_size {step_size} s is not a positive multiple of time_resolution {self.resolution} s"
+            )
         self.step_ticks = round(ticks)
         self._unzipdir = extract(str(fmu))
         self.meta.update(make_meta(self.md))
@@ -243,8 +278,9 @@ class AemSimulator(mosaik_api_v3.Simulator):
         created = []
         for _ in range(num):
             eid = f"{model}_{next(counter)}"
-            self.entities[eid] = _Instance(eid, model, f"{self.sid}.{eid}", self.md, self._unzipdir, self.vars,
-                                           values, self.logging_on)
+            self.entities[eid] = _Instance(
+                eid, model, f"{self.sid}.{eid}", self.md, self._unzipdir, self.vars, values, self.logging_on
+            )
             created.append({"eid": eid, "type": model})
         return created
 

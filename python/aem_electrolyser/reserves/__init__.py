@@ -9,12 +9,29 @@ time domain and the dispatcher evaluate.evaluate), frequency_domain (sine tests,
 activation (CE FCR, FFR, aFRR, mFRR), bisection (largest passing capacity), report
 (Markdown/CSV/JSON, plots).
 """
+
 from . import activation, bisection, evaluate, frequency_domain, report, signals
 from .bisection import CapacityResult, largest_capacity
 from .frequency_domain import SinePoint, evaluate_sine_set, sine_point
 from .requirement import FAIL, PASS, UNSURE, Requirement, Trace
 from .signals import TestSignal
 
-__all__ = ["activation", "bisection", "evaluate", "frequency_domain", "report", "signals",
-           "CapacityResult", "largest_capacity", "SinePoint", "evaluate_sine_set",
-           "sine_point", "FAIL", "PASS", "UNSURE", "Requirement", "Trace", "TestSignal"]
+__all__ = [
+    "activation",
+    "bisection",
+    "evaluate",
+    "frequency_domain",
+    "report",
+    "signals",
+    "CapacityResult",
+    "largest_capacity",
+    "SinePoint",
+    "evaluate_sine_set",
+    "sine_point",
+    "FAIL",
+    "PASS",
+    "UNSURE",
+    "Requirement",
+    "Trace",
+    "TestSignal",
+]

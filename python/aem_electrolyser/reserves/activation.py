@@ -4,6 +4,7 @@ mFRR (standard products). ΔP = s·ΔP_up relative to the baseline [W] (s = +1 u
 "Full activation" is ΔP ≥ (1 − tolerance)·C; no tolerance is stated in the sources, so the
 default is 0 (only the numerical tolerance of `check`).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -16,10 +17,30 @@ def _full_and_held(tag, t, d, C, t_on, fat, t_end, tolerance, source):
     """ΔP(t_on + fat) ≥ (1 − tol)·C and min ΔP over [t_on + fat, t_end] ≥ (1 − tol)·C."""
     need = (1 - tolerance) * C
     w = samples(t, d, t_on + fat, t_end)
-    return [check(f"{tag}: full activation within {fat:g} s", at(t, d, t_on + fat), "W", need,
-                  None, "W", source=source, scale=C, note=f"step at {t_on:g} s"),
-            check(f"{tag}: held until {t_end:g} s", float(w.min()), "W", need, None, "W",
-                  source=source, scale=C, note=f"lowest ΔP from {t_on + fat:g} s")]
+    return [
+        check(
+            f"{tag}: full activation within {fat:g} s",
+            at(t, d, t_on + fat),
+            "W",
+            need,
+            None,
+            "W",
+            source=source,
+            scale=C,
+            note=f"step at {t_on:g} s",
+        ),
+        check(
+            f"{tag}: held until {t_end:g} s",
+            float(w.min()),
+            "W",
+            need,
+            None,
+            "W",
+            source=source,
+            scale=C,
+            note=f"lowest ΔP from {t_on + fat:g} s",
+        ),
+    ]
 
 
 def ce_fcr(trace: Trace, capacity: float, signal: TestSignal, tolerance: float = 0.0) -> list:
@@ -27,9 +48,17 @@ def ce_fcr(trace: Trace, capacity: float, signal: TestSignal, tolerance: float =
     The step profile is our assumption (the German double-hump profile is unsure)."""
     out = []
     for t_on, s, t_end in signal.marks["steps"]:
-        out += _full_and_held(f"CE FCR {'up (49.8 Hz)' if s == UP else 'down (50.2 Hz)'}",
-                              trace.t, s * trace.dp_up, capacity, t_on, signal.marks["fat"],
-                              t_end, tolerance, "SO GL Annex V")
+        out += _full_and_held(
+            f"CE FCR {'up (49.8 Hz)' if s == UP else 'down (50.2 Hz)'}",
+            trace.t,
+            s * trace.dp_up,
+            capacity,
+            t_on,
+            signal.marks["fat"],
+            t_end,
+            tolerance,
+            "SO GL Annex V",
+        )
     return out
 
 
@@ -63,15 +92,31 @@ def ffr(trace: Trace, capacity: float, signal: TestSignal, tolerance: float = 0.
     w = samples(t, d, start, min(start + support, t[-1]) + 1e-6)
     short = start + support > m["t_return"] + 1e-9
     return [
-        check(f"FFR {m['trigger']} Hz: full activation time", t_full - tt, "s", None, fat, "s",
-              source=src, scale=fat),
-        check(f"FFR {m['trigger']} Hz: support for {support:g} s", float(w.min()), "W", need,
-              None, "W", source=src, scale=C,
-              note=f"largest deactivation rate {100 * rate:.1f} %/s of C (≤ 20 %/s → 5 s, "
-                   "else 30 s)" + ("; TEST TOO SHORT for this support" if short else "")),
-        check(f"FFR {m['trigger']} Hz: overshoot ≤ 1.2·C", float(d.max()), "W", None, 1.2 * C,
-              "W", source="Nordic FFR technical requirements (not read)", unsure=True, scale=C,
-              note="UNSURE: limit not confirmed; informative only"),
+        check(f"FFR {m['trigger']} Hz: full activation time", t_full - tt, "s", None, fat, "s", source=src, scale=fat),
+        check(
+            f"FFR {m['trigger']} Hz: support for {support:g} s",
+            float(w.min()),
+            "W",
+            need,
+            None,
+            "W",
+            source=src,
+            scale=C,
+            note=f"largest deactivation rate {100 * rate:.1f} %/s of C (≤ 20 %/s → 5 s, "
+            "else 30 s)" + ("; TEST TOO SHORT for this support" if short else ""),
+        ),
+        check(
+            f"FFR {m['trigger']} Hz: overshoot ≤ 1.2·C",
+            float(d.max()),
+            "W",
+            None,
+            1.2 * C,
+            "W",
+            source="Nordic FFR technical requirements (not read)",
+            unsure=True,
+            scale=C,
+            note="UNSURE: limit not confirmed; informative only",
+        ),
     ]
 
 
@@ -80,6 +125,14 @@ def frr(trace: Trace, capacity: float, signal: TestSignal, tolerance: float = 0.
     step reaches C by the full-activation time and is held until the request ends."""
     m = signal.marks
     tag = f"{signal.product} {'up' if signal.direction == UP else 'down'}"
-    return _full_and_held(tag, trace.t, signal.direction * trace.dp_up, capacity, m["t_step"],
-                          m["fat"], m["t_end"], tolerance,
-                          "PICASSO (aFRR) / MARI (mFRR) standard products")
+    return _full_and_held(
+        tag,
+        trace.t,
+        signal.direction * trace.dp_up,
+        capacity,
+        m["t_step"],
+        m["fat"],
+        m["t_end"],
+        tolerance,
+        "PICASSO (aFRR) / MARI (mFRR) standard products",
+    )

@@ -1,6 +1,7 @@
 """One product's assessment on the packaged FMU: its tests run at a capacity C [W], evaluated;
 the largest C that passes, by bisection up to what the operating window allows.
 """
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -75,8 +76,7 @@ def trace(runner: HubRunner, signal, capacity: float, parameters: dict) -> Trace
     return Trace(signal.t, power, runner.baseline, f=signal.f, reserve_request=request)
 
 
-def largest(runner: HubRunner, product: Product, dt: float = 0.1, tolerance: float = None,
-            on_step=None):
+def largest(runner: HubRunner, product: Product, dt: float = 0.1, tolerance: float = None, on_step=None):
     """(CapacityResult, Run at the result, Run just above it): bisection on (0, window bound]
     [W]. The Run at the result is None if no capacity passes, the Run above is None if the upper
     bound passes; both are None if the window allows nothing (then nothing runs).
@@ -92,8 +92,14 @@ def largest(runner: HubRunner, product: Product, dt: float = 0.1, tolerance: flo
             on_step(len(runs), most, c, not failing(runs[c].results, product.use_reduction))
         return runs[c]
 
-    result: CapacityResult = largest_capacity(attempt, lambda r, c: r.results, upper, runner.rated_power,
-                                              tolerance=tolerance, use_reduction=product.use_reduction)
+    result: CapacityResult = largest_capacity(
+        attempt,
+        lambda r, c: r.results,
+        upper,
+        runner.rated_power,
+        tolerance=tolerance,
+        use_reduction=product.use_reduction,
+    )
     at = runs.get(result.capacity) if result.capacity > 0 else None
     if at is None and result.capacity > 0:
         at = run_product(runner, product, result.capacity, dt)
@@ -112,12 +118,21 @@ def section(product: Product, result: CapacityResult, at: Run, above: Run = None
     passes, at the smallest capacity tried, where the failure shows)."""
     run = shown(result, at, above)
     if result.window_empty:
-        notes = [f"not tested: the operating window allows no {product.name} at this baseline "
-                 f"(bound {result.upper:.0f} W)"]
+        notes = [
+            f"not tested: the operating window allows no {product.name} at this baseline (bound {result.upper:.0f} W)"
+        ]
     else:
         n = len(result.history)
-        notes = [f"searched up to the operating window's bound, {result.upper:.0f} W; bisection tried "
-                 f"{n} capacit{'y' if n == 1 else 'ies'}"]
+        notes = [
+            f"searched up to the operating window's bound, {result.upper:.0f} W; bisection tried "
+            f"{n} capacit{'y' if n == 1 else 'ies'}"
+        ]
     results = run.results if run is not None else result.above
-    return report.Section(product.name, results, run.capacity if run is not None else None, result, notes,
-                          use_reduction=product.use_reduction)
+    return report.Section(
+        product.name,
+        results,
+        run.capacity if run is not None else None,
+        result,
+        notes,
+        use_reduction=product.use_reduction,
+    )

@@ -9,6 +9,7 @@ requirement whose largest passing reduction factor K_red is in its range counts 
 the capacity every report states). An upper bound ≤ 0 (the operating window allows nothing in
 this direction at this baseline) runs nothing and gives capacity 0.
 """
+
 from __future__ import annotations
 
 import math
@@ -71,10 +72,14 @@ def reduction(results) -> float:
     return min(ks) if ks else 1.0
 
 
-def largest_capacity(run: Callable[[float], object],
-                     evaluate: Callable[[object, float], list],
-                     upper: float, rated_power: float, tolerance: Optional[float] = None,
-                     use_reduction: bool = False) -> CapacityResult:
+def largest_capacity(
+    run: Callable[[float], object],
+    evaluate: Callable[[object, float], list],
+    upper: float,
+    rated_power: float,
+    tolerance: Optional[float] = None,
+    use_reduction: bool = False,
+) -> CapacityResult:
     """Bisection on (0, upper] [W]: run(C) -> trace, evaluate(trace, C) -> Requirements.
     Stops when the bracket is ≤ tolerance (default 0.5 % of rated_power) [W]; C = 0 is never
     run (taken as passing)."""
@@ -119,5 +124,4 @@ def limiting_names(result: CapacityResult) -> list:
     return [r.name for r in result.limiting]
 
 
-__all__ = ["CapacityResult", "largest_capacity", "failing", "reduction", "most_steps", "limiting_names",
-           "Requirement"]
+__all__ = ["CapacityResult", "largest_capacity", "failing", "reduction", "most_steps", "limiting_names", "Requirement"]

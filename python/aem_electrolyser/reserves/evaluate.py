@@ -5,6 +5,7 @@ Every evaluator takes a Trace (consumption P and baseline [W]), the capacity C [
 49.9→49.5 Hz for FCR-D) and the TestSignal that drove the run, and returns Requirements.
 Delivered response in the tested direction: ΔP = s·ΔP_up = −s·(P − P_baseline), s = ±1.
 """
+
 from __future__ import annotations
 
 from typing import Optional
@@ -12,8 +13,21 @@ from typing import Optional
 import numpy as np
 
 from . import activation, frequency_domain
-from .requirement import (FAIL, NUM_TOL, PASS, UNSURE, Requirement, Trace, at, check, integral,
-                          mean, moving_mean, samples, window)
+from .requirement import (
+    FAIL,
+    NUM_TOL,
+    PASS,
+    UNSURE,
+    Requirement,
+    Trace,
+    at,
+    check,
+    integral,
+    mean,
+    moving_mean,
+    samples,
+    window,
+)
 from .signals import DOWN, UP, TestSignal
 
 NTR = "NTR v1.1"
@@ -45,9 +59,19 @@ def k_at_least(measured: float, needed_at_k1: float, k_range) -> Optional[float]
 def _steady(name, x, C, lo, hi, k_range, source, note=""):
     """Req. 1: (ΔP_ss − C)/C in [lo, hi] (delivered direction), in % of C."""
     k = k_steady(x / C, lo, hi, k_range) if k_range else None
-    return check(name, 100 * (x - C) / C, "%", 100 * lo, 100 * hi, "% of ΔP_ss,theo",
-                 source=source, k_red=k, k_range=k_range, scale=100,
-                 note=f"ΔP_ss = {x:.6g} W, ΔP_ss,theo = {C:.6g} W" + (f"; {note}" if note else ""))
+    return check(
+        name,
+        100 * (x - C) / C,
+        "%",
+        100 * lo,
+        100 * hi,
+        "% of ΔP_ss,theo",
+        source=source,
+        k_red=k,
+        k_range=k_range,
+        scale=100,
+        note=f"ΔP_ss = {x:.6g} W, ΔP_ss,theo = {C:.6g} W" + (f"; {note}" if note else ""),
+    )
 
 
 def _activation(tag, t, d, C, t0, k_range, source):
@@ -55,12 +79,32 @@ def _activation(tag, t, d, C, t0, k_range, source):
     d75 = at(t, d, t0 + 7.5)
     e75 = integral(t, d, t0, t0 + 7.5)
     return [
-        check(f"{tag} Req. 2: ΔP(t0 + 7.5 s) ≥ 0.86·ΔP_ss,theo", d75, "W", 0.86 * C, None, "W",
-              source=source, k_red=k_at_least(d75, 0.86 * C, k_range), k_range=k_range, scale=C,
-              note=f"t0 = {t0:g} s; ΔP(7.5 s) = {100 * d75 / C:.2f} % of C"),
-        check(f"{tag} Req. 3: E(0-7.5 s) ≥ 3.2 s·ΔP_ss,theo", e75, "W·s", 3.2 * C, None, "W·s",
-              source=source, k_red=k_at_least(e75, 3.2 * C, k_range), k_range=k_range,
-              scale=C, note=f"E = {e75 / C:.4f} s·C"),
+        check(
+            f"{tag} Req. 2: ΔP(t0 + 7.5 s) ≥ 0.86·ΔP_ss,theo",
+            d75,
+            "W",
+            0.86 * C,
+            None,
+            "W",
+            source=source,
+            k_red=k_at_least(d75, 0.86 * C, k_range),
+            k_range=k_range,
+            scale=C,
+            note=f"t0 = {t0:g} s; ΔP(7.5 s) = {100 * d75 / C:.2f} % of C",
+        ),
+        check(
+            f"{tag} Req. 3: E(0-7.5 s) ≥ 3.2 s·ΔP_ss,theo",
+            e75,
+            "W·s",
+            3.2 * C,
+            None,
+            "W·s",
+            source=source,
+            k_red=k_at_least(e75, 3.2 * C, k_range),
+            k_range=k_range,
+            scale=C,
+            note=f"E = {e75 / C:.4f} s·C",
+        ),
     ]
 
 
@@ -70,11 +114,19 @@ def _no_fall(tag, t, d, C, t0, t_end, osc_tol, source):
     ours), a larger one FAIL."""
     d75 = at(t, d, t0 + 7.5)
     dip = float(min(samples(t, d, t0 + 7.5, t_end).min(), d75) - d75)
-    r = check(f"{tag}: no fall below ΔP(t0 + 7.5 s) until {t_end:g} s", dip, "W", 0.0, None,
-              "W", source=source, scale=C,
-              note=f"lowest ΔP − ΔP(7.5 s) = {100 * dip / C:.3f} % of C; dips up to "
-                   f"{100 * osc_tol:g} % of C reported unsure (our tolerance for 'small, "
-                   "well-damped oscillations')")
+    r = check(
+        f"{tag}: no fall below ΔP(t0 + 7.5 s) until {t_end:g} s",
+        dip,
+        "W",
+        0.0,
+        None,
+        "W",
+        source=source,
+        scale=C,
+        note=f"lowest ΔP − ΔP(7.5 s) = {100 * dip / C:.3f} % of C; dips up to "
+        f"{100 * osc_tol:g} % of C reported unsure (our tolerance for 'small, "
+        "well-damped oscillations')",
+    )
     if r.status == FAIL and dip > -osc_tol * C:
         r.status = UNSURE
     return r
@@ -101,22 +153,35 @@ def fcr_n_steps(trace: Trace, capacity: float, signal: TestSignal) -> list:
     P = [mean(t, d, *m[f"ss{k}"]) for k in range(4)]
     base = 0.5 * (P[0] + P[3])
     src = f"{NTR} §3.1.1 Req. 1"
-    out = [_steady("FCR-N Req. 1 up (49.9 Hz)", P[1] - base, C, -0.05, 0.2, K_FCR_N, src),
-           _steady("FCR-N Req. 1 down (50.1 Hz)", -(P[2] - base), C, -0.05, 0.2, K_FCR_N, src)]
+    out = [
+        _steady("FCR-N Req. 1 up (49.9 Hz)", P[1] - base, C, -0.05, 0.2, K_FCR_N, src),
+        _steady("FCR-N Req. 1 down (50.1 Hz)", -(P[2] - base), C, -0.05, 0.2, K_FCR_N, src),
+    ]
     mm = moving_mean(t, d, 10.0)
     for k, s in ((1, UP), (2, DOWN)):
         a, b = m[f"hold{k}"]
         w = samples(t, s * (mm - base), a + 60.0, b)
-        out.append(check(f"FCR-N Req. 12 {'up' if s == UP else 'down'}: response held",
-                         100 * (w.min() - C) / C, "%", -5.0, None, "% of ΔP_ss,theo",
-                         source=f"{NTR} §3.1.1 Req. 12", unsure=True, scale=100,
-                         note="lowest 10-s mean from 60 s after the step to its end; the −5 % "
-                              "bound is our quantification of 'stays activated'"))
+        out.append(
+            check(
+                f"FCR-N Req. 12 {'up' if s == UP else 'down'}: response held",
+                100 * (w.min() - C) / C,
+                "%",
+                -5.0,
+                None,
+                "% of ΔP_ss,theo",
+                source=f"{NTR} §3.1.1 Req. 12",
+                unsure=True,
+                scale=100,
+                note="lowest 10-s mean from 60 s after the step to its end; the −5 % "
+                "bound is our quantification of 'stays activated'",
+            )
+        )
     return out
 
 
-def fcr_d_ramp(trace: Trace, capacity: float, signal: TestSignal,
-               fcr_n_capacity: Optional[float] = None, osc_tol: float = 0.02) -> list:
+def fcr_d_ramp(
+    trace: Trace, capacity: float, signal: TestSignal, fcr_n_capacity: Optional[float] = None, osc_tol: float = 0.02
+) -> list:
     """Dynamic FCR-D fast ramp test (NTR §3.1.2), ΔP in the tested direction:
     Req. 1: (P_ss,3 − P_ss,4 − C)/C ∈ [−5, +20] %, K_red,ss ∈ [0.75, 1];
     Req. 2/3 on ramp 5 (t0 = its start, ΔP relative to the 10-s mean before t0),
@@ -129,8 +194,7 @@ def fcr_d_ramp(trace: Trace, capacity: float, signal: TestSignal,
     tag = signal.product
     src = f"{NTR} §3.1.2"
     x = mean(t, d, *m["ss3"]) - mean(t, d, *m["ss4"])
-    out = [_steady(f"{tag} Req. 1: steady state P_ss,3 − P_ss,4", x, C, -0.05, 0.2, K_FCR_D,
-                   src + " Req. 1")]
+    out = [_steady(f"{tag} Req. 1: steady state P_ss,3 − P_ss,4", x, C, -0.05, 0.2, K_FCR_D, src + " Req. 1")]
     t0 = m["t0"]
     d5 = d - mean(t, d, *m["ref5"])
     out += _activation(tag, t, d5, C, t0, K_FCR_D, src)
@@ -140,24 +204,42 @@ def fcr_d_ramp(trace: Trace, capacity: float, signal: TestSignal,
     dn = at(t, d1, tn)
     thr = min(abs(dn), 0.5 * C)
     e = deactivation_integral(t, d1, tn, thr, m["deactivation_window"])
-    out.append(check(f"{tag} Req. 4: deactivation energy after the nadir", e, "W·s", None,
-                     2.5 * C, "W·s", source=src + " Req. 4", scale=C,
-                     note=f"t_nadir = {tn:g} s, ΔP_nadir = {100 * dn / C:.2f} % of C, threshold "
-                          f"min(|ΔP_nadir|, 0.5·C) = {100 * thr / C:.2f} % of C, over "
-                          f"{m['deactivation_window']:g} s; max integral = {e / C:.4f} s·C"))
+    out.append(
+        check(
+            f"{tag} Req. 4: deactivation energy after the nadir",
+            e,
+            "W·s",
+            None,
+            2.5 * C,
+            "W·s",
+            source=src + " Req. 4",
+            scale=C,
+            note=f"t_nadir = {tn:g} s, ΔP_nadir = {100 * dn / C:.2f} % of C, threshold "
+            f"min(|ΔP_nadir|, 0.5·C) = {100 * thr / C:.2f} % of C, over "
+            f"{m['deactivation_window']:g} s; max integral = {e / C:.4f} s·C",
+        )
+    )
     if "ss6" in m and fcr_n_capacity is not None:
         p6 = mean(t, d, *m["ss6"])
         for k in (7, 8):
             share = abs(m[f"df{k}"] - 0.1) / 0.4
             want = fcr_n_capacity + share * C
-            out.append(_steady(f"{tag} Req. 1b: combination, ramps 6 and {k}",
-                               mean(t, d, *m[f"ss{k}"]) - p6, want, -0.05, 0.2, None,
-                               src + " Req. 1b", note=f"expected C_FCR-N + {share:g}·C"))
+            out.append(
+                _steady(
+                    f"{tag} Req. 1b: combination, ramps 6 and {k}",
+                    mean(t, d, *m[f"ss{k}"]) - p6,
+                    want,
+                    -0.05,
+                    0.2,
+                    None,
+                    src + " Req. 1b",
+                    note=f"expected C_FCR-N + {share:g}·C",
+                )
+            )
     return out
 
 
-def static_fcr_d(trace: Trace, capacity: float, signal: TestSignal, osc_tol: float = 0.02,
-                 eps: float = 1e-6) -> list:
+def static_fcr_d(trace: Trace, capacity: float, signal: TestSignal, osc_tol: float = 0.02, eps: float = 1e-6) -> list:
     """Static FCR-D ramp test (NTR §3.1.3): Req. 1 (P_ss,1 − P_ss,0 − C)/C ∈ [−5, +10] %;
     Req. 2/3 on ramp 1 with K_red,dyn ∈ [0.84, 1]; no fall below ΔP(t0 + 7.5 s) until ramp 2;
     Req. 5a max|ΔP| ≤ 1.2·C; Req. 5b |ΔP(t0 + 2.5 s)| > 0 (> eps·C); Req. 6 deactivated 15 min
@@ -167,32 +249,81 @@ def static_fcr_d(trace: Trace, capacity: float, signal: TestSignal, osc_tol: flo
     d = signal.direction * trace.dp_up
     tag, src = signal.product, f"{NTR} §3.1.3"
     x = mean(t, d, *m["ss1"]) - mean(t, d, *m["ss0"])
-    out = [_steady(f"{tag} Req. 1: steady state P_ss,1 − P_ss,0", x, C, -0.05, 0.10, None,
-                   src + " Req. 1", note="no K_red,ss is stated for static FCR-D")]
+    out = [
+        _steady(
+            f"{tag} Req. 1: steady state P_ss,1 − P_ss,0",
+            x,
+            C,
+            -0.05,
+            0.10,
+            None,
+            src + " Req. 1",
+            note="no K_red,ss is stated for static FCR-D",
+        )
+    ]
     t0, t2 = m["t0"], m["t_ramp2"]
     d0 = d - mean(t, d, *m["ref1"])
     out += _activation(tag, t, d0, C, t0, K_STATIC_DYN, src)
     out.append(_no_fall(tag, t, d0, C, t0, t2, osc_tol, src))
     w = samples(t, np.abs(d0), t0, t2)
-    out.append(check(f"{tag} Req. 5a: overshoot |ΔP_max| ≤ 1.2·C", float(w.max()), "W", None,
-                     1.2 * C, "W", source=src + " Req. 5a", scale=C))
+    out.append(
+        check(
+            f"{tag} Req. 5a: overshoot |ΔP_max| ≤ 1.2·C",
+            float(w.max()),
+            "W",
+            None,
+            1.2 * C,
+            "W",
+            source=src + " Req. 5a",
+            scale=C,
+        )
+    )
     d25 = at(t, d0, t0 + 2.5)
-    out.append(check(f"{tag} Req. 5b: response begun at t0 + 2.5 s", abs(d25), "W", eps * C,
-                     None, "W", source=src + " Req. 5b", scale=0.0,
-                     note=f"|ΔP(t0 + 2.5 s)| > 0, numerical zero = {eps:g}·C"))
+    out.append(
+        check(
+            f"{tag} Req. 5b: response begun at t0 + 2.5 s",
+            abs(d25),
+            "W",
+            eps * C,
+            None,
+            "W",
+            source=src + " Req. 5b",
+            scale=0.0,
+            note=f"|ΔP(t0 + 2.5 s)| > 0, numerical zero = {eps:g}·C",
+        )
+    )
     tr = m["t_ready"]
     if tr <= t[-1]:
-        out.append(check(f"{tag} Req. 6: deactivated 15 min after 60 s in band",
-                         abs(at(t, d, tr)), "W", None, 0.05 * C, "W", source=src + " Req. 6",
-                         scale=C, note=f"at t = {tr:g} s; 'deactivated' read as |ΔP| ≤ 5 % of C "
-                                       "(our tolerance)"))
+        out.append(
+            check(
+                f"{tag} Req. 6: deactivated 15 min after 60 s in band",
+                abs(at(t, d, tr)),
+                "W",
+                None,
+                0.05 * C,
+                "W",
+                source=src + " Req. 6",
+                scale=C,
+                note=f"at t = {tr:g} s; 'deactivated' read as |ΔP| ≤ 5 % of C (our tolerance)",
+            )
+        )
     sel = t >= t2
     for lag, lim, lab in ((10.0, 0.25, "10-s window ≤ 2.5 %/s"), (1.0, 0.2, "1-s step ≤ 20 %")):
         ok = sel & (t - lag >= t[0])
         drop = float(np.max(np.interp(t[ok] - lag, t, d) - d[ok]))
-        out.append(check(f"{tag} Req. 7: deactivation rate, {lab}", drop, "W", None, lim * C,
-                         "W", source=src + " Req. 7", scale=C,
-                         note=f"largest ΔP(t − {lag:g} s) − ΔP(t) from ramp 2 on"))
+        out.append(
+            check(
+                f"{tag} Req. 7: deactivation rate, {lab}",
+                drop,
+                "W",
+                None,
+                lim * C,
+                "W",
+                source=src + " Req. 7",
+                scale=C,
+                note=f"largest ΔP(t − {lag:g} s) − ΔP(t) from ramp 2 on",
+            )
+        )
     return out
 
 
@@ -220,11 +351,21 @@ def linearity(trace: Trace, capacity: float, signal: TestSignal) -> list:
         lo_margin = np.inf if lo is None else dev.min() - lo
         worst = dev.min() if lo_margin < hi - dev.max() else dev.max()
         last = prod != "FCR-N" and k == len(levels) - 1
-        out.append(check(f"{prod} Req. 11: step to {f:.2f} Hz", 100 * worst, "%",
-                         None if lo is None else 100 * lo, 100 * hi, "% of C around expected",
-                         source=f"{NTR} §3.4.2 Req. 11", unsure=last, scale=100,
-                         note=f"expected {100 * exp:.1f} % of C"
-                              + ("; return into the normal band: informative" if last else "")))
+        out.append(
+            check(
+                f"{prod} Req. 11: step to {f:.2f} Hz",
+                100 * worst,
+                "%",
+                None if lo is None else 100 * lo,
+                100 * hi,
+                "% of C around expected",
+                source=f"{NTR} §3.4.2 Req. 11",
+                unsure=last,
+                scale=100,
+                note=f"expected {100 * exp:.1f} % of C"
+                + ("; return into the normal band: informative" if last else ""),
+            )
+        )
     return out
 
 
@@ -232,15 +373,32 @@ def evaluate(trace: Trace, capacity: float, signal: TestSignal, **options) -> li
     """Route one trace to the evaluator of its signal.kind. Options go to the evaluator
     (fcr_n_capacity, osc_tol, tolerance, t_fme, …)."""
     kind = signal.kind
-    table = {"fcr_n_steps": fcr_n_steps, "fcr_d_ramp": fcr_d_ramp,
-             "static_fcr_d_ramp": static_fcr_d, "linearity_steps": linearity,
-             "ce_fcr_steps": activation.ce_fcr, "ffr_step": activation.ffr,
-             "frr_step": activation.frr, "sine": frequency_domain.sine_linearity}
+    table = {
+        "fcr_n_steps": fcr_n_steps,
+        "fcr_d_ramp": fcr_d_ramp,
+        "static_fcr_d_ramp": static_fcr_d,
+        "linearity_steps": linearity,
+        "ce_fcr_steps": activation.ce_fcr,
+        "ffr_step": activation.ffr,
+        "frr_step": activation.frr,
+        "sine": frequency_domain.sine_linearity,
+    }
     if kind not in table:
         raise ValueError(f"no evaluator for {kind}")
     return table[kind](trace, capacity, signal, **options)
 
 
-__all__ = ["evaluate", "fcr_n_steps", "fcr_d_ramp", "static_fcr_d", "linearity",
-           "deactivation_integral", "k_steady", "k_at_least", "PASS", "FAIL", "UNSURE",
-           "Requirement"]
+__all__ = [
+    "evaluate",
+    "fcr_n_steps",
+    "fcr_d_ramp",
+    "static_fcr_d",
+    "linearity",
+    "deactivation_integral",
+    "k_steady",
+    "k_at_least",
+    "PASS",
+    "FAIL",
+    "UNSURE",
+    "Requirement",
+]

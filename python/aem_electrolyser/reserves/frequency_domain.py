@@ -14,6 +14,7 @@ Grid model (eq. 11): G(jω) = (ΔP_FCR-X/Δf_FCR-X)·(f0/S_n)/(2H·jω + K_f·f0
 Between tested periods F is interpolated with log|F| and the unwrapped phase linear in ω (exact
 for a constant gain with a pure delay); G is exact; no extrapolation beyond the tested range.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -29,10 +30,12 @@ RADIUS = 0.43
 MARGIN = 0.95
 K_MARGIN = 0.95
 #: Table 7: (ΔP_FCR-X [W], Δf_FCR-X [Hz], S_n [W], H [s]); K_f = 0.01 p.u./Hz, f0 = 50 Hz.
-GRID = {("N", "stability"): (600e6, 0.1, 23000e6, 120000 / 23000),
-        ("N", "performance"): (600e6, 0.1, 42000e6, 190000 / 42000),
-        ("D", "stability"): (1450e6, 0.4, 23000e6, 120000 / 23000),
-        ("D", "performance"): (1450e6, 0.4, 42000e6, 190000 / 42000)}
+GRID = {
+    ("N", "stability"): (600e6, 0.1, 23000e6, 120000 / 23000),
+    ("N", "performance"): (600e6, 0.1, 42000e6, 190000 / 42000),
+    ("D", "stability"): (1450e6, 0.4, 23000e6, 120000 / 23000),
+    ("D", "performance"): (1450e6, 0.4, 42000e6, 190000 / 42000),
+}
 K_F, F0 = 0.01, 50.0
 #: Req. 9 reduction factor floors.
 K_PERF_MIN = {"N": 0.9, "D": 0.75}
@@ -75,8 +78,7 @@ def fit_sine(t: np.ndarray, x: np.ndarray, period: float):
     return complex(b, a), float(c), A @ np.array([c, a, b])
 
 
-def sine_point(trace: Trace, capacity: float, signal: TestSignal,
-               t_fme: Optional[float] = 1.0) -> SinePoint:
+def sine_point(trace: Trace, capacity: float, signal: TestSignal, t_fme: Optional[float] = 1.0) -> SinePoint:
     """Fit f and ΔP_up over the marked stationary periods [t_a, t_b) → F(jω) and the Req. 10
     ratio RMS(ΔP − ΔP_est)/std(ΔP_est) (the fit includes an offset: an FCR-D sine at 49.7 Hz sits
     on 50 % activation)."""
@@ -136,14 +138,20 @@ def stability(points: Sequence[SinePoint], product: str) -> Requirement:
     r = RADIUS * MARGIN
     im = g0.imag
     k = np.nonzero(im[:-1] * im[1:] <= 0)[0]
-    re_x = g0.real[k] - im[k] * (g0.real[k + 1] - g0.real[k]) / np.where(
-        im[k + 1] != im[k], im[k + 1] - im[k], 1.0)
+    re_x = g0.real[k] - im[k] * (g0.real[k + 1] - g0.real[k]) / np.where(im[k + 1] != im[k], im[k + 1] - im[k], 1.0)
     left = bool(np.any(re_x < -1 - r))
-    res = check(f"{product} Req. 8: Nyquist distance of G0 = F·G to −1", float(dist.min()), "",
-                r, None, "(0.43 · 0.95)", source=f"{NTR} §3.2 Req. 8",
-                note=f"min at tested points {np.abs(gp + 1).min():.4f}; nominal radius 0.43"
-                     + ("; FCR-N may ask for a 75 % margin exemption" if product == "FCR-N" else "")
-                     + ("; curve passes LEFT of −1 (encircles)" if left else ""))
+    res = check(
+        f"{product} Req. 8: Nyquist distance of G0 = F·G to −1",
+        float(dist.min()),
+        "",
+        r,
+        None,
+        "(0.43 · 0.95)",
+        source=f"{NTR} §3.2 Req. 8",
+        note=f"min at tested points {np.abs(gp + 1).min():.4f}; nominal radius 0.43"
+        + ("; FCR-N may ask for a 75 % margin exemption" if product == "FCR-N" else "")
+        + ("; curve passes LEFT of −1 (encircles)" if left else ""),
+    )
     if left:
         res.status = "fail"
     return res
@@ -168,23 +176,37 @@ def performance(points: Sequence[SinePoint], product: str) -> Requirement:
         if performance_ratio(points, product, kk) < 1:
             k = float(kk)
             break
-    return check(f"{product} Req. 9: performance max K_margin·|G_c|·|D| (D = 1/(70 s + 1))",
-                 ratio, "", None, 1.0, "", source=f"{NTR} §3.3 Req. 9", unsure=True, k_red=k,
-                 k_range=(kmin, 1.0),
-                 note="UNSURE: the disturbance profile D(s) is not confirmed; informative only")
+    return check(
+        f"{product} Req. 9: performance max K_margin·|G_c|·|D| (D = 1/(70 s + 1))",
+        ratio,
+        "",
+        None,
+        1.0,
+        "",
+        source=f"{NTR} §3.3 Req. 9",
+        unsure=True,
+        k_red=k,
+        k_range=(kmin, 1.0),
+        note="UNSURE: the disturbance profile D(s) is not confirmed; informative only",
+    )
 
 
 def linearity_requirement(p: SinePoint, product: str) -> Requirement:
     """Req. 10: RMS(P − P_est)/std(P_est) < 1 for each tested period."""
-    return check(f"{product} Req. 10: linearity at T = {p.period:g} s", p.linearity, "", None,
-                 1.0, "", source=f"{NTR} §3.4.1 Req. 10",
-                 note=f"|F| = {p.gain:.4f}, ∠F = {p.phase_deg:.2f}°"
-                      + ("; failing FCR-D entities are classed static FCR-D"
-                         if product != "FCR-N" else ""))
+    return check(
+        f"{product} Req. 10: linearity at T = {p.period:g} s",
+        p.linearity,
+        "",
+        None,
+        1.0,
+        "",
+        source=f"{NTR} §3.4.1 Req. 10",
+        note=f"|F| = {p.gain:.4f}, ∠F = {p.phase_deg:.2f}°"
+        + ("; failing FCR-D entities are classed static FCR-D" if product != "FCR-N" else ""),
+    )
 
 
-def sine_linearity(trace: Trace, capacity: float, signal: TestSignal,
-                   t_fme: Optional[float] = 1.0) -> list:
+def sine_linearity(trace: Trace, capacity: float, signal: TestSignal, t_fme: Optional[float] = 1.0) -> list:
     """Per-trace evaluation (Req. 10 of one period)."""
     return [linearity_requirement(sine_point(trace, capacity, signal, t_fme), signal.product)]
 

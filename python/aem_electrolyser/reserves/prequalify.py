@@ -27,6 +27,7 @@ This is a model-based assessment of the test programme (Nordic FCR technical req
 v1.1 of 28 March 2025 and test programme, Fingrid FFR, SO GL Annex V), not a prequalification
 approval; rules that could not be confirmed are reported as unsure (informative).
 """
+
 import argparse
 import csv
 import multiprocessing
@@ -69,6 +70,7 @@ def job(fmu, hub, product_name, dt):
     """One product on one hub (in a worker process): (CapacityResult, Run at it, Run just above
     it, rated power). Every bisection step is reported to the parent's progress bar. A failure
     is an FmuError (the FMU's own message) or a JobError, both with the product's name."""
+
     def step(n, most, capacity, passed):
         if _PROGRESS is not None:
             _PROGRESS.put((hub_label(hub), product_name, n, most, capacity, passed))
@@ -87,6 +89,7 @@ def job(fmu, hub, product_name, dt):
 
 
 # --- names and figures --------------------------------------------------------------------------
+
 
 def percent(fraction: float) -> str:
     """80 for 0.8, 80.5 for 0.805 (distinct baselines give distinct file names)."""
@@ -113,6 +116,7 @@ def power_text(w: float) -> str:
 
 # --- plots --------------------------------------------------------------------------------------
 
+
 def verdict(figures: report.Capacity, result, run) -> tuple:
     """(text, failing) for the plots of a product: its capacity and the limiting requirement
     with its measured value against its limit; failing if the run plotted fails."""
@@ -131,38 +135,76 @@ def plot_product(folder: Path, stem: str, product, figures, result, run, title) 
     names = []
     for k, (signal, trace) in enumerate(run.tests):
         name = f"{stem}_{slug(product.name)}_{k + 1}.png"
-        report.plot_time_test(folder / name, signal, trace, run.capacity, annotation=text, failing=failing,
-                              title=f"{title}: {signal.name}, C = {run.capacity:.0f} W\n"
-                                    + textwrap.fill(report.DISCLAIMER, 130))
+        report.plot_time_test(
+            folder / name,
+            signal,
+            trace,
+            run.capacity,
+            annotation=text,
+            failing=failing,
+            title=f"{title}: {signal.name}, C = {run.capacity:.0f} W\n" + textwrap.fill(report.DISCLAIMER, 130),
+        )
         names.append(name)
     if run.points:
         name = f"{stem}_{slug(product.name)}_nyquist.png"
-        report.plot_nyquist(folder / name, run.points, product.sine, annotation=text, failing=failing,
-                            title=f"{title}: sine tests at C = {run.capacity:.0f} W\n"
-                                  + textwrap.fill(report.DISCLAIMER, 130))
+        report.plot_nyquist(
+            folder / name,
+            run.points,
+            product.sine,
+            annotation=text,
+            failing=failing,
+            title=f"{title}: sine tests at C = {run.capacity:.0f} W\n" + textwrap.fill(report.DISCLAIMER, 130),
+        )
         names.append(name)
     return names
 
 
 # --- the summary --------------------------------------------------------------------------------
 
+
 def write_summary(out: Path, hubs, products, figures, rated):
     """summary.md and summary.csv: per product and hub, the capacity and what limits it."""
     rows = [(p.name, hub, figures[(hub, p.name)]) for p in products for hub in hubs]
     with open(out / "summary.csv", "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["product", "dispatch", "baseline [% of rated]", "compensation", "capacity [W]",
-                    "capacity [% of rated]", "capacity before reduction [W]", "reduction factor [1]",
-                    "limiting requirement"])
+        w.writerow(
+            [
+                "product",
+                "dispatch",
+                "baseline [% of rated]",
+                "compensation",
+                "capacity [W]",
+                "capacity [% of rated]",
+                "capacity before reduction [W]",
+                "reduction factor [1]",
+                "limiting requirement",
+            ]
+        )
         for name, hub, c in rows:
-            w.writerow([name, POLICY[hub.dispatch], percent(hub.baseline), "on" if hub.compensation else "off",
-                        f"{c.w:.0f}", f"{c.pct:.2f}",
-                        "" if c.before_reduction_w is None else f"{c.before_reduction_w:.0f}",
-                        "" if c.reduction_factor is None else f"{c.reduction_factor:.6g}", c.limiting])
-    lines = [f"# Capacity per product (rated power {rated / 1e6:.4g} MW)", "", f"**{report.DISCLAIMER}**", "",
-             "The capacity to sell: the largest passing capacity, times the reduction factor K_red where the "
-             "rules allow one (marked K_red). The per-hub reports give every requirement.", "",
-             "| product | " + " | ".join(hub_label(h) for h in hubs) + " |", "|---|" + "---|" * len(hubs)]
+            w.writerow(
+                [
+                    name,
+                    POLICY[hub.dispatch],
+                    percent(hub.baseline),
+                    "on" if hub.compensation else "off",
+                    f"{c.w:.0f}",
+                    f"{c.pct:.2f}",
+                    "" if c.before_reduction_w is None else f"{c.before_reduction_w:.0f}",
+                    "" if c.reduction_factor is None else f"{c.reduction_factor:.6g}",
+                    c.limiting,
+                ]
+            )
+    lines = [
+        f"# Capacity per product (rated power {rated / 1e6:.4g} MW)",
+        "",
+        f"**{report.DISCLAIMER}**",
+        "",
+        "The capacity to sell: the largest passing capacity, times the reduction factor K_red where the "
+        "rules allow one (marked K_red). The per-hub reports give every requirement.",
+        "",
+        "| product | " + " | ".join(hub_label(h) for h in hubs) + " |",
+        "|---|" + "---|" * len(hubs),
+    ]
     for product in products:
         cells = []
         for hub in hubs:
@@ -176,11 +218,13 @@ def write_summary(out: Path, hubs, products, figures, rated):
 
 # --- the command line ---------------------------------------------------------------------------
 
+
 def modules_count(text):
     value = cli.positive(int)(text)
     if value > MAX_MODULES:
-        raise argparse.ArgumentTypeError(f"must be at most {MAX_MODULES} (the FMU's nModules is a 32-bit integer), "
-                                         f"not {text}")
+        raise argparse.ArgumentTypeError(
+            f"must be at most {MAX_MODULES} (the FMU's nModules is a 32-bit integer), not {text}"
+        )
     return value
 
 
@@ -203,18 +247,40 @@ def parser():
     p = cli.CommandLine(description=__doc__)
     cli.add_fmu_option(p)
     p.add_argument("--modules", type=modules_count, default=25_000, help="modules of the hub [default: 25000]")
-    p.add_argument("--dispatch", type=cli.list_of(tuple(DISPATCH)), default=["equal"],
-                   help="equal, sequential, comma-separated [default: equal]")
-    p.add_argument("--baseline", type=baselines, default=[0.8],
-                   help="baseline consumption in %% of rated power, each within (0, 100] and at least the hub's "
-                        "least steady power; comma-separated [default: 80]")
-    p.add_argument("--compensation", type=cli.one_of(("off", "on", "both")), default="both",
-                   help="reserveCompensation: off, on or both [default: both]")
-    p.add_argument("--products", type=cli.list_of(names), default=names,
-                   help=f"comma-separated, of: {', '.join(names)}; or all [default: all]")
-    p.add_argument("--dt", type=cli.positive(float), default=0.1, help="test signal sampling and FMU step [s] [default: 0.1]")
-    p.add_argument("--jobs", type=cli.positive(int), default=os.cpu_count() or 1,
-                   help="parallel worker processes [default: one per core]")
+    p.add_argument(
+        "--dispatch",
+        type=cli.list_of(tuple(DISPATCH)),
+        default=["equal"],
+        help="equal, sequential, comma-separated [default: equal]",
+    )
+    p.add_argument(
+        "--baseline",
+        type=baselines,
+        default=[0.8],
+        help="baseline consumption in %% of rated power, each within (0, 100] and at least the hub's "
+        "least steady power; comma-separated [default: 80]",
+    )
+    p.add_argument(
+        "--compensation",
+        type=cli.one_of(("off", "on", "both")),
+        default="both",
+        help="reserveCompensation: off, on or both [default: both]",
+    )
+    p.add_argument(
+        "--products",
+        type=cli.list_of(names),
+        default=names,
+        help=f"comma-separated, of: {', '.join(names)}; or all [default: all]",
+    )
+    p.add_argument(
+        "--dt", type=cli.positive(float), default=0.1, help="test signal sampling and FMU step [s] [default: 0.1]"
+    )
+    p.add_argument(
+        "--jobs",
+        type=cli.positive(int),
+        default=os.cpu_count() or 1,
+        help="parallel worker processes [default: one per core]",
+    )
     cli.add_out_option(p, Path("out") / "prequalification", "the reports, plots and summary")
     p.add_argument("--no-plots", action="store_true", help="no PNG plots")
     return p
@@ -229,8 +295,10 @@ def check_baselines(p, args):
         runner.close()
     low = [b for b in args.baseline if 100.0 * b < least - 1e-9]
     if low:
-        p.error(f"--baseline: {100 * low[0]:g} % is below the hub's least steady power, {least:.2f} % of rated "
-                f"(every module at minSetpoint); give each within [{least:.2f}, 100]")
+        p.error(
+            f"--baseline: {100 * low[0]:g} % is below the hub's least steady power, {least:.2f} % of rated "
+            f"(every module at minSetpoint); give each within [{least:.2f}, 100]"
+        )
 
 
 def run_jobs(args, keys):
@@ -239,9 +307,12 @@ def run_jobs(args, keys):
     context = multiprocessing.get_context()
     steps = context.Queue() if cli.shows_progress(args.quiet) else None
     done = {}
-    with cli.progress(total=len(keys), desc="prequalification", unit="job", quiet=args.quiet) as bar, \
-            ProcessPoolExecutor(max_workers=args.jobs, mp_context=context, initializer=_start_worker,
-                                initargs=(steps,)) as pool:
+    with (
+        cli.progress(total=len(keys), desc="prequalification", unit="job", quiet=args.quiet) as bar,
+        ProcessPoolExecutor(
+            max_workers=args.jobs, mp_context=context, initializer=_start_worker, initargs=(steps,)
+        ) as pool,
+    ):
         futures = {pool.submit(job, args.fmu, hub, name, args.dt): (hub, name) for hub, name in keys}
         pending = set(futures)
         try:
@@ -265,8 +336,10 @@ def _show_steps(steps, bar):
             hub, product, n, most, capacity, passed = steps.get_nowait()
         except queue.Empty:
             return
-        bar.set_postfix_str(f"{product} @ {hub}: step {n} of ≤ {most}, {power_text(capacity)} "
-                            f"{'passes' if passed else 'fails'}", refresh=True)
+        bar.set_postfix_str(
+            f"{product} @ {hub}: step {n} of ≤ {most}, {power_text(capacity)} {'passes' if passed else 'fails'}",
+            refresh=True,
+        )
 
 
 def main(argv=None):
@@ -292,18 +365,19 @@ def main(argv=None):
             c = figures[(hub, product.name)] = report.capacity(section, rated)
             run = assess.shown(result, at, above)
             if not args.no_plots and run is not None:
-                section.plots = plot_product(args.out, stem, product, c, result, run,
-                                             f"{product.name}, {hub_label(hub)}")
+                section.plots = plot_product(
+                    args.out, stem, product, c, result, run, f"{product.name}, {hub_label(hub)}"
+                )
             sections.append(section)
-        report.write_report(args.out, stem, sections, f"Reserve prequalification (model-based): {hub.describe()}",
-                            rated)
+        report.write_report(
+            args.out, stem, sections, f"Reserve prequalification (model-based): {hub.describe()}", rated
+        )
     rows = write_summary(args.out, hubs, products, figures, rated)
     cli.say(args, f"{'product':<16} {'hub':<24} {'capacity':<34} limiting requirement")
     for name, hub, c in rows:
         k = f", K_red {c.reduction_factor:.3f}" if c.reduction_factor is not None else ""
         cli.say(args, f"{name:<16} {hub_label(hub):<24} {f'{power_text(c.w)} ({c.pct:.2f} %{k})':<34} {c.limiting}")
-    cli.say(args, f"{len(hubs)} hub(s) x {len(products)} product(s) assessed in {elapsed:.1f} s; "
-                  f"reports in {args.out}")
+    cli.say(args, f"{len(hubs)} hub(s) x {len(products)} product(s) assessed in {elapsed:.1f} s; reports in {args.out}")
     return 0
 
 

@@ -6,6 +6,7 @@ Static FCR-D is not assessed: it presumes a relay-style activation that waits 60
 normal band before a slow deactivation (at most 2.5 %/s), which the FMU's linear FCR-D
 characteristic does not implement (the evaluators for it exist in `evaluate.static_fcr_d`).
 """
+
 from dataclasses import dataclass, field
 from typing import Callable, Optional
 
@@ -29,8 +30,14 @@ class Product:
 
 
 def _ffr(trigger):
-    return Product(f"FFR {trigger} Hz", "ffrCapacity", lambda dt: [signals.ffr_step(trigger, dt)], None, UP,
-                   parameters={"ffrTriggerFrequency": trigger, "ffrSupportDuration": 30.0})
+    return Product(
+        f"FFR {trigger} Hz",
+        "ffrCapacity",
+        lambda dt: [signals.ffr_step(trigger, dt)],
+        None,
+        UP,
+        parameters={"ffrTriggerFrequency": trigger, "ffrSupportDuration": 30.0},
+    )
 
 
 PRODUCTS = [

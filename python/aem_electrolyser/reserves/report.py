@@ -2,6 +2,7 @@
 style of the TSOs' evaluation tool: frequency; asked and delivered power; limits as lines and
 bands; a Nyquist plot with the 0.43 circle for sine tests.
 """
+
 from __future__ import annotations
 
 import csv
@@ -17,9 +18,11 @@ from . import frequency_domain as fd
 from .requirement import FAIL, PASS, UNSURE, Requirement, Trace, at, mean
 from .signals import UP, TestSignal, asked_response
 
-DISCLAIMER = ("This is a model-based assessment of the test programme (Nordic FCR technical "
-              "requirements v1.1 of 28 March 2025 and test programme, Fingrid FFR, SO GL "
-              "Annex V), not a prequalification approval.")
+DISCLAIMER = (
+    "This is a model-based assessment of the test programme (Nordic FCR technical "
+    "requirements v1.1 of 28 March 2025 and test programme, Fingrid FFR, SO GL "
+    "Annex V), not a prequalification approval."
+)
 
 
 @dataclass
@@ -79,12 +82,16 @@ def capacity(sec: Section, rated: float) -> Optional[Capacity]:
     before = float(round(cr.capacity)) if k is not None else None
     if getattr(cr, "window_empty", False):
         limiting = "operating window"
-        detail = (f"operating window: it allows no capacity in this direction at this baseline "
-                  f"(bound {cr.upper:.0f} W); not tested")
+        detail = (
+            f"operating window: it allows no capacity in this direction at this baseline "
+            f"(bound {cr.upper:.0f} W); not tested"
+        )
     elif cr.upper_bound_passes:
         limiting = "operating window"
-        detail = (f"operating window: every requirement passes at its bound, {cr.capacity:.0f} W; "
-                  "a larger capacity does not fit the window at this baseline")
+        detail = (
+            f"operating window: every requirement passes at its bound, {cr.capacity:.0f} W; "
+            "a larger capacity does not fit the window at this baseline"
+        )
     else:
         limiting = "; ".join(r.name for r in cr.limiting) or "–"
         parts = []
@@ -113,8 +120,10 @@ def capacity_sentence(c: Capacity) -> str:
     before reduction'."""
     text = f"{c.w:.0f} W ({c.pct:.2f} % of rated)"
     if c.reduction_factor is not None:
-        text += (f", the reduction factor K_red = {c.reduction_factor:.4f} applied to "
-                 f"{c.before_reduction_w:.0f} W before reduction")
+        text += (
+            f", the reduction factor K_red = {c.reduction_factor:.4f} applied to "
+            f"{c.before_reduction_w:.0f} W before reduction"
+        )
     return text
 
 
@@ -128,13 +137,11 @@ def unsure_rules(sections: Sequence[Section]) -> list:
     return out
 
 
-def to_markdown(sections: Sequence[Section], title: str, rated_power: float,
-                notes: Sequence[str] = ()) -> str:
+def to_markdown(sections: Sequence[Section], title: str, rated_power: float, notes: Sequence[str] = ()) -> str:
     """The report as Markdown: the disclaimer, per test the capacity (W, % of rated; after the
     reduction factor where one applies) and the limiting requirement, a table (measured vs
     limit, status, K_red) at the capacity tested, then the unsure rules."""
-    out = [f"# {title}", "", f"**{DISCLAIMER}**", "",
-           f"Rated power of the assessed unit: {rated_power:.6g} W.", ""]
+    out = [f"# {title}", "", f"**{DISCLAIMER}**", "", f"Rated power of the assessed unit: {rated_power:.6g} W.", ""]
     for s in sections:
         out += [f"## {s.name}", ""]
         c = capacity(s, rated_power)
@@ -142,11 +149,12 @@ def to_markdown(sections: Sequence[Section], title: str, rated_power: float,
             out += [f"**Capacity: {capacity_sentence(c)}.** Limiting requirement: {c.detail}.", ""]
         if s.capacity is not None:
             where = f", {c.tested}" if c is not None else ""
-            out += [f"Requirements at {s.capacity:.0f} W ({100 * s.capacity / rated_power:.2f} % of "
-                    f"rated){where}:", ""]
+            out += [f"Requirements at {s.capacity:.0f} W ({100 * s.capacity / rated_power:.2f} % of rated){where}:", ""]
         if s.results:
-            out += ["| Requirement | Measured | Limit | Status | K_red (range) | Source, note |",
-                    "|---|---|---|---|---|---|"]
+            out += [
+                "| Requirement | Measured | Limit | Status | K_red (range) | Source, note |",
+                "|---|---|---|---|---|---|",
+            ]
         for r in s.results:
             k = "–" if r.k_red is None else f"{r.k_red:.4f}"
             if r.k_range:
@@ -154,8 +162,7 @@ def to_markdown(sections: Sequence[Section], title: str, rated_power: float,
             st = {PASS: "pass", FAIL: "**FAIL**", UNSURE: "unsure (informative)"}[r.status]
             if r.status == FAIL and s.use_reduction and r.k_red:
                 st = "**FAIL** without reduction; passes with K_red"
-            cells = [r.name, _measured(r), r.limit_text, st, k,
-                     r.source + ("; " + r.note if r.note else "")]
+            cells = [r.name, _measured(r), r.limit_text, st, k, r.source + ("; " + r.note if r.note else "")]
             out.append("| " + " | ".join(_cell(x) for x in cells) + " |")
         s_notes = list(s.notes) + (["plots: " + ", ".join(f"`{p}`" for p in s.plots)] if s.plots else [])
         out += [""] + [f"- {n}" for n in s_notes] + ([""] if s_notes else [])
@@ -169,26 +176,68 @@ def to_markdown(sections: Sequence[Section], title: str, rated_power: float,
 #: The per-test CSV: one row per requirement; the unit of `measured` is in `unit`, that of
 #: `low`/`high` in `limit unit`; every capacity in W (the capacity after reduction where one
 #: applies; `capacity before reduction [W]` only then).
-_COLUMNS = ["test", "requirement", "measured [see unit]", "unit", "limit", "low [see limit unit]",
-            "high [see limit unit]", "limit unit", "status", "K_red [1]", "K_red min [1]",
-            "K_red max [1]", "source", "note", "tested capacity [W]", "capacity [W]",
-            "capacity [% of rated]", "capacity before reduction [W]", "reduction factor [1]",
-            "limiting requirement"]
+_COLUMNS = [
+    "test",
+    "requirement",
+    "measured [see unit]",
+    "unit",
+    "limit",
+    "low [see limit unit]",
+    "high [see limit unit]",
+    "limit unit",
+    "status",
+    "K_red [1]",
+    "K_red min [1]",
+    "K_red max [1]",
+    "source",
+    "note",
+    "tested capacity [W]",
+    "capacity [W]",
+    "capacity [% of rated]",
+    "capacity before reduction [W]",
+    "reduction factor [1]",
+    "limiting requirement",
+]
 
 
 def _rows(sections, rated_power):
     for s in sections:
         c = capacity(s, rated_power)
-        figures = [None] * 5 if c is None else [
-            f"{c.w:.0f}", f"{c.pct:.2f}",
-            None if c.before_reduction_w is None else f"{c.before_reduction_w:.0f}",
-            None if c.reduction_factor is None else f"{c.reduction_factor:.6g}", c.limiting]
+        figures = (
+            [None] * 5
+            if c is None
+            else [
+                f"{c.w:.0f}",
+                f"{c.pct:.2f}",
+                None if c.before_reduction_w is None else f"{c.before_reduction_w:.0f}",
+                None if c.reduction_factor is None else f"{c.reduction_factor:.6g}",
+                c.limiting,
+            ]
+        )
         for r in s.results:
-            yield dict(zip(_COLUMNS, [
-                s.name, r.name, r.measured, r.unit, r.limit_text, r.low, r.high, r.limit_unit,
-                r.status, r.k_red, r.k_range[0] if r.k_range else None,
-                r.k_range[1] if r.k_range else None, r.source, r.note,
-                None if s.capacity is None else f"{s.capacity:.0f}", *figures]))
+            yield dict(
+                zip(
+                    _COLUMNS,
+                    [
+                        s.name,
+                        r.name,
+                        r.measured,
+                        r.unit,
+                        r.limit_text,
+                        r.low,
+                        r.high,
+                        r.limit_unit,
+                        r.status,
+                        r.k_red,
+                        r.k_range[0] if r.k_range else None,
+                        r.k_range[1] if r.k_range else None,
+                        r.source,
+                        r.note,
+                        None if s.capacity is None else f"{s.capacity:.0f}",
+                        *figures,
+                    ],
+                )
+            )
 
 
 def write_csv(path, sections: Sequence[Section], rated_power: float) -> Path:
@@ -213,33 +262,47 @@ def _finite(x):
 
 
 def write_json(path, sections: Sequence[Section], title: str, rated_power: float) -> Path:
-    doc = {"title": title, "statement": DISCLAIMER, "rated_power_W": rated_power,
-           "tests": [], "unsure_rules": [r.name for r in unsure_rules(sections)]}
+    doc = {
+        "title": title,
+        "statement": DISCLAIMER,
+        "rated_power_W": rated_power,
+        "tests": [],
+        "unsure_rules": [r.name for r in unsure_rules(sections)],
+    }
     for s in sections:
         c = capacity(s, rated_power)
         entry = {"name": s.name, "tested_capacity_W": None if s.capacity is None else float(round(s.capacity))}
         if c is not None:
-            entry.update({"capacity_W": c.w, "capacity_pct_rated": c.pct,
-                          "capacity_before_reduction_W": c.before_reduction_w,
-                          "reduction_factor": c.reduction_factor, "tested_at": c.tested,
-                          "limiting_requirement": c.limiting, "limiting_detail": c.detail})
-        entry.update({"notes": list(s.notes), "plots": list(s.plots),
-                      "requirements": [r.to_dict() for r in s.results]})
+            entry.update(
+                {
+                    "capacity_W": c.w,
+                    "capacity_pct_rated": c.pct,
+                    "capacity_before_reduction_W": c.before_reduction_w,
+                    "reduction_factor": c.reduction_factor,
+                    "tested_at": c.tested,
+                    "limiting_requirement": c.limiting,
+                    "limiting_detail": c.detail,
+                }
+            )
+        entry.update({"notes": list(s.notes), "plots": list(s.plots), "requirements": [r.to_dict() for r in s.results]})
         doc["tests"].append(entry)
-    Path(path).write_text(json.dumps(_finite(doc), indent=2, ensure_ascii=False, allow_nan=False),
-                          encoding="utf-8")
+    Path(path).write_text(json.dumps(_finite(doc), indent=2, ensure_ascii=False, allow_nan=False), encoding="utf-8")
     return Path(path)
 
 
-def write_report(out_dir, stem: str, sections: Sequence[Section], title: str,
-                 rated_power: float, notes: Sequence[str] = ()) -> dict:
+def write_report(
+    out_dir, stem: str, sections: Sequence[Section], title: str, rated_power: float, notes: Sequence[str] = ()
+) -> dict:
     """Write <stem>.md, .csv, .json into out_dir; returns their paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     md = out / f"{stem}.md"
     md.write_text(to_markdown(sections, title, rated_power, notes), encoding="utf-8")
-    return {"md": md, "csv": write_csv(out / f"{stem}.csv", sections, rated_power),
-            "json": write_json(out / f"{stem}.json", sections, title, rated_power)}
+    return {
+        "md": md,
+        "csv": write_csv(out / f"{stem}.csv", sections, rated_power),
+        "json": write_json(out / f"{stem}.json", sections, title, rated_power),
+    }
 
 
 # ---------------------------------------------------------------- plots
@@ -280,36 +343,57 @@ def _limits(ax, signal: TestSignal, trace: Trace, C, k):
         band(a, b, lo_, hi_, "Req. 1 band")
         t0 = m["t0"]
         r5 = mean(t, d, *(m["ref5"] if kind == "fcr_d_ramp" else m["ref1"]))
-        ax.plot([t0 + 7.5], [(r5 + s * 0.86 * C) / k], "v", color="tab:red",
-                label="Req. 2: 0.86·C at t0 + 7.5 s")
+        ax.plot([t0 + 7.5], [(r5 + s * 0.86 * C) / k], "v", color="tab:red", label="Req. 2: 0.86·C at t0 + 7.5 s")
         ax.axvline(t0 + 7.5, color="tab:red", lw=0.6, ls=":")
         sel = (t >= t0) & (t <= t0 + 7.5)
-        ax.fill_between(t[sel], r5 / k, d[sel] / k, color="tab:red", alpha=0.15,
-                        label="Req. 3: E(0-7.5 s)")
+        ax.fill_between(t[sel], r5 / k, d[sel] / k, color="tab:red", alpha=0.15, label="Req. 3: E(0-7.5 s)")
         t_end = m["t_ramp6"] if kind == "fcr_d_ramp" else m["t_ramp2"]
-        ax.hlines(at(t, d, t0 + 7.5) / k, t0 + 7.5, t_end, color="tab:red", lw=0.6, ls="--",
-                  label="no fall below ΔP(t0 + 7.5 s)")
+        ax.hlines(
+            at(t, d, t0 + 7.5) / k,
+            t0 + 7.5,
+            t_end,
+            color="tab:red",
+            lw=0.6,
+            ls="--",
+            label="no fall below ΔP(t0 + 7.5 s)",
+        )
         if kind == "fcr_d_ramp":
             tn = m["t_nadir"]
             r1 = mean(t, d, *m["ref1"])
             thr = min(abs(at(t, s * (d - r1), tn)), 0.5 * C)
-            ax.hlines((r1 + s * thr) / k, tn, tn + m["deactivation_window"], color="tab:purple",
-                      lw=0.8, label="Req. 4 threshold")
+            ax.hlines(
+                (r1 + s * thr) / k,
+                tn,
+                tn + m["deactivation_window"],
+                color="tab:purple",
+                lw=0.8,
+                label="Req. 4 threshold",
+            )
             ax.axvline(tn, color="tab:purple", lw=0.6, ls=":")
             sel = (t >= tn) & (t <= tn + m["deactivation_window"])
-            ax.fill_between(t[sel], (r1 + s * thr) / k, d[sel] / k, color="tab:purple",
-                            alpha=0.15, label="Req. 4 integrand")
+            ax.fill_between(
+                t[sel], (r1 + s * thr) / k, d[sel] / k, color="tab:purple", alpha=0.15, label="Req. 4 integrand"
+            )
         else:
-            ax.axhline((ref + s * 1.2 * C) / k, color="tab:red", lw=0.6, ls="--",
-                       label="Req. 5a: 1.2·C")
+            ax.axhline((ref + s * 1.2 * C) / k, color="tab:red", lw=0.6, ls="--", label="Req. 5a: 1.2·C")
     elif kind in ("ce_fcr_steps", "frr_step", "ffr_step"):
-        steps = (m["steps"] if kind == "ce_fcr_steps" else
-                 [(m["t_step"], s, m["t_end"])] if kind == "frr_step" else
-                 [(m["t_trigger"], UP, m["t_return"])])
+        steps = (
+            m["steps"]
+            if kind == "ce_fcr_steps"
+            else [(m["t_step"], s, m["t_end"])]
+            if kind == "frr_step"
+            else [(m["t_trigger"], UP, m["t_return"])]
+        )
         fat = m["fat"]
         for t_on, sd, t_end in steps:
-            ax.hlines(sd * C / k, t_on + fat, t_end, color="tab:red", lw=1.0,
-                      label=f"100 % from +{fat:g} s" if t_on == steps[0][0] else None)
+            ax.hlines(
+                sd * C / k,
+                t_on + fat,
+                t_end,
+                color="tab:red",
+                lw=1.0,
+                label=f"100 % from +{fat:g} s" if t_on == steps[0][0] else None,
+            )
             ax.axvline(t_on + fat, color="tab:red", lw=0.6, ls=":")
 
 
@@ -319,9 +403,15 @@ def _verdict(fig, annotation: Optional[str], failing: bool, width: int = 150) ->
     if not annotation:
         return 0.0
     lines = [w for line in annotation.splitlines() for w in textwrap.wrap(line, width) or [""]]
-    fig.text(0.01, 0.005, "\n".join(lines), va="bottom", ha="left", fontsize=7,
-             bbox=dict(boxstyle="round", facecolor="white",
-                       edgecolor="tab:red" if failing else "tab:green", linewidth=1.5))
+    fig.text(
+        0.01,
+        0.005,
+        "\n".join(lines),
+        va="bottom",
+        ha="left",
+        fontsize=7,
+        bbox=dict(boxstyle="round", facecolor="white", edgecolor="tab:red" if failing else "tab:green", linewidth=1.5),
+    )
     return (len(lines) * 7 * 1.35 + 14) / 72 / fig.get_figheight()
 
 
@@ -333,9 +423,16 @@ def _metadata(title: Optional[str], annotation: Optional[str]) -> dict:
     return meta
 
 
-def plot_time_test(path, signal: TestSignal, trace: Trace, capacity: float,
-                   zoom: Optional[Sequence[tuple]] = None, title: Optional[str] = None,
-                   annotation: Optional[str] = None, failing: bool = False) -> Path:
+def plot_time_test(
+    path,
+    signal: TestSignal,
+    trace: Trace,
+    capacity: float,
+    zoom: Optional[Sequence[tuple]] = None,
+    title: Optional[str] = None,
+    annotation: Optional[str] = None,
+    failing: bool = False,
+) -> Path:
     """Frequency (or request) on top, ΔP_up delivered and asked below with the limits; one more
     row per zoom window (t0, t1) [s] (default: ramp 5 and ramps 1-2 for FCR-D, ramp 1 for static
     FCR-D, the trigger for FFR). Asked = −reserveRequest if the trace carries it, else the static
@@ -344,10 +441,11 @@ def plot_time_test(path, signal: TestSignal, trace: Trace, capacity: float,
     k, unit = _scale(capacity)
     m = signal.marks
     if zoom is None:
-        zoom = {"fcr_d_ramp": [(m.get("t0", 0) - 5, m.get("t0", 0) + 25), (25.0, 85.0)],
-                "static_fcr_d_ramp": [(m.get("t0", 0) - 5, m.get("t0", 0) + 25)],
-                "ffr_step": [(m.get("t_trigger", 0) - 2, m.get("t_trigger", 0) + 40)]
-                }.get(signal.kind, [])
+        zoom = {
+            "fcr_d_ramp": [(m.get("t0", 0) - 5, m.get("t0", 0) + 25), (25.0, 85.0)],
+            "static_fcr_d_ramp": [(m.get("t0", 0) - 5, m.get("t0", 0) + 25)],
+            "ffr_step": [(m.get("t_trigger", 0) - 2, m.get("t_trigger", 0) + 40)],
+        }.get(signal.kind, [])
     n = 2 + len(zoom)
     plt = _pyplot()
     fig, axes = plt.subplots(n, 1, figsize=(10, 2.6 * n), squeeze=False)
@@ -360,11 +458,15 @@ def plot_time_test(path, signal: TestSignal, trace: Trace, capacity: float,
         axes[0].set_ylabel("request [p.u. of C]")
     characteristic = asked_response(signal) * capacity
     for ax, lim in zip(axes[1:], [None] + list(zoom)):
-        ax.plot(signal.t, characteristic / k, color="0.5", ls="--", lw=1,
-                label="static characteristic × C")
+        ax.plot(signal.t, characteristic / k, color="0.5", ls="--", lw=1, label="static characteristic × C")
         if trace.reserve_request is not None:
-            ax.plot(trace.t, -np.asarray(trace.reserve_request) / k, color="tab:orange", lw=1,
-                    label="asked (−reserveRequest)")
+            ax.plot(
+                trace.t,
+                -np.asarray(trace.reserve_request) / k,
+                color="tab:orange",
+                lw=1,
+                label="asked (−reserveRequest)",
+            )
         ax.plot(trace.t, trace.dp_up / k, color="k", lw=1.2, label="delivered ΔP_up")
         _limits(ax, signal, trace, capacity, k)
         ax.set_ylabel(f"ΔP_up [{unit}]")
@@ -375,17 +477,23 @@ def plot_time_test(path, signal: TestSignal, trace: Trace, capacity: float,
     for ax in axes:
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("time [s]")
-    axes[0].set_title(title or f"{signal.name}: C = {capacity / k:.4g} {unit}\n"
-                      + textwrap.fill(DISCLAIMER, 130), fontsize=8)
+    axes[0].set_title(
+        title or f"{signal.name}: C = {capacity / k:.4g} {unit}\n" + textwrap.fill(DISCLAIMER, 130), fontsize=8
+    )
     fig.tight_layout(rect=(0, _verdict(fig, annotation, failing, 180), 1, 1))
     fig.savefig(path, dpi=110, metadata=_metadata(title, annotation))
     plt.close(fig)
     return Path(path)
 
 
-def plot_nyquist(path, points: Sequence["fd.SinePoint"], product: str,
-                 title: Optional[str] = None, annotation: Optional[str] = None,
-                 failing: bool = False) -> Path:
+def plot_nyquist(
+    path,
+    points: Sequence["fd.SinePoint"],
+    product: str,
+    title: Optional[str] = None,
+    annotation: Optional[str] = None,
+    failing: bool = False,
+) -> Path:
     """Nyquist curve of G0 = F·G (interpolated between tested periods, the tested points
     labelled) with the circles of radius 0.43 and 0.43·0.95 around −1; beside it Req. 9
     (|G_c| against |1/D|, marked unsure). `annotation` as in plot_time_test."""
@@ -397,10 +505,9 @@ def plot_nyquist(path, points: Sequence["fd.SinePoint"], product: str,
     for p, g in zip(points, gp):
         a1.annotate(f"{p.period:g} s", (g.real, g.imag), fontsize=7)
     for r, ls in ((fd.RADIUS, "--"), (fd.RADIUS * fd.MARGIN, "-")):
-        a1.add_patch(plt.Circle((-1, 0), r, fill=False, color="tab:red", ls=ls,
-                                label=f"r = {r:.4g}"))
+        a1.add_patch(plt.Circle((-1, 0), r, fill=False, color="tab:red", ls=ls, label=f"r = {r:.4g}"))
     a1.plot([-1], [0], "x", color="tab:red")
-    a1.set_xlim(-3.0, 1.5)      # the neighbourhood of −1 (G0 starts far right at long periods)
+    a1.set_xlim(-3.0, 1.5)  # the neighbourhood of −1 (G0 starts far right at long periods)
     a1.set_ylim(-2.5, 1.5)
     a1.set_aspect("equal")
     a1.grid(alpha=0.3)
@@ -412,8 +519,7 @@ def plot_nyquist(path, points: Sequence["fd.SinePoint"], product: str,
     g = fd.grid_model(product, "performance", w)
     gc = fd.K_MARGIN * np.abs(g / (1 + fd.interpolate_F(points, w) * g))
     a2.loglog(2 * np.pi / w, gc, color="tab:orange", label="K_margin·|G_c|")
-    a2.loglog(2 * np.pi / w, np.abs(1 + 70j * w), color="tab:orange", ls="--",
-              label="|1/D|, D = 1/(70 s + 1)")
+    a2.loglog(2 * np.pi / w, np.abs(1 + 70j * w), color="tab:orange", ls="--", label="|1/D|, D = 1/(70 s + 1)")
     a2.set_xlabel("period [s]")
     a2.grid(alpha=0.3, which="both")
     a2.legend(fontsize=7)

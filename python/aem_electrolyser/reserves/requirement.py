@@ -10,6 +10,7 @@ Evaluators turn this into the delivered response of the tested direction, ΔP_di
 s = +1 for upward (under-frequency) and s = −1 for downward tests, so every limit below reads
 "positive = delivered in the asked direction".
 """
+
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
@@ -68,15 +69,15 @@ def _g(x: float) -> str:
     return f"{x:.6g}"
 
 
-def check(name, measured, unit, low, high, limit_unit, *, source, note="", k_red=None,
-          k_range=None, unsure=False, scale=1.0) -> Requirement:
+def check(
+    name, measured, unit, low, high, limit_unit, *, source, note="", k_red=None, k_range=None, unsure=False, scale=1.0
+) -> Requirement:
     """A Requirement with status from low ≤ measured ≤ high (tolerance NUM_TOL·scale), or
     UNSURE when `unsure` (the status is then informative only)."""
     tol = NUM_TOL * max(abs(scale), 1e-300)
     ok = (low is None or measured >= low - tol) and (high is None or measured <= high + tol)
     status = UNSURE if unsure else (PASS if ok else FAIL)
-    return Requirement(name, float(measured), unit, low, high, limit_unit, status, k_red,
-                       k_range, source, note)
+    return Requirement(name, float(measured), unit, low, high, limit_unit, status, k_red, k_range, source, note)
 
 
 @dataclass

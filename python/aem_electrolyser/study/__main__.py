@@ -1,4 +1,5 @@
 """python -m aem_electrolyser.study: the aem-study command."""
+
 import sys
 
 from aem_electrolyser.extras import require

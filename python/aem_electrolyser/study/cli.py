@@ -13,11 +13,11 @@ plots/*.png and summary.txt (printed unless --quiet).
 The arguments and the whole study file are checked before anything runs. Exit status 0 when
 every scenario is done; 1 when some failed or were lost, or the run itself failed (one line;
 --debug shows the traceback); 2 when an argument or the study file is wrong (one line)."""
+
 import sys
 from pathlib import Path
 
-from aem_electrolyser.cli import (CommandLine, UsageError, one_line, positive, run_command, say,
-                                  writable_folder)
+from aem_electrolyser.cli import CommandLine, UsageError, one_line, positive, run_command, say, writable_folder
 
 from . import engine
 from .definition import Study, StudyError
@@ -29,16 +29,26 @@ def parser():
     """The command line of aem-study."""
     line = CommandLine(prog="aem-study", description=__doc__)
     line.add_argument("study", type=Path, metavar="STUDY.toml", help="the study file (TOML)")
-    line.add_argument("--out", type=Path, metavar="FOLDER",
-                      help="folder for the stored scenarios and the report [default: out/<study name>]")
+    line.add_argument(
+        "--out",
+        type=Path,
+        metavar="FOLDER",
+        help="folder for the stored scenarios and the report [default: out/<study name>]",
+    )
     where = line.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=positive(int), metavar="N",
-                       help="LocalCluster worker processes [default: one per core]")
-    where.add_argument("--scheduler", metavar="ADDRESS",
-                       help="address of an existing Dask scheduler, e.g. tcp://HOST:8786")
+    where.add_argument(
+        "--workers", type=positive(int), metavar="N", help="LocalCluster worker processes [default: one per core]"
+    )
+    where.add_argument(
+        "--scheduler", metavar="ADDRESS", help="address of an existing Dask scheduler, e.g. tcp://HOST:8786"
+    )
     where.add_argument("--serial", action="store_true", help="run in this process, no Dask")
-    line.add_argument("--runner", type=Path, metavar="PATH",
-                      help="the aem-run binary to ship to workers of this platform [default: the installation's own]")
+    line.add_argument(
+        "--runner",
+        type=Path,
+        metavar="PATH",
+        help="the aem-run binary to ship to workers of this platform [default: the installation's own]",
+    )
     line.add_argument("--retry-failed", action="store_true", help="run failed scenarios again")
     line.add_argument("--no-plots", action="store_true", help="no plots/*.png")
     line.add_argument("--list", action="store_true", help="list the scenarios and whether they are stored")
@@ -82,11 +92,21 @@ def _main(argv):
         return _list(study, out)
     writable_folder(out)
     try:
-        records = engine.run(study, out, scheduler=args.scheduler, workers=args.workers, serial=args.serial,
-                             runner=args.runner, retry_failed=args.retry_failed, quiet=args.quiet)
+        records = engine.run(
+            study,
+            out,
+            scheduler=args.scheduler,
+            workers=args.workers,
+            serial=args.serial,
+            runner=args.runner,
+            retry_failed=args.retry_failed,
+            quiet=args.quiet,
+        )
     except KeyboardInterrupt:
-        print(f"aem-study: stopped; finished scenarios are kept in {out / 'scenarios'}: run again to resume",
-              file=sys.stderr)
+        print(
+            f"aem-study: stopped; finished scenarios are kept in {out / 'scenarios'}: run again to resume",
+            file=sys.stderr,
+        )
         return 130
     scenarios = study.scenarios()
     frame = table(scenarios, study.axis_columns, records)
@@ -96,13 +116,16 @@ def _main(argv):
     say(args, f"wrote {out}/: " + ", ".join(sorted(Path(p).name for p in written.values())))
     lost = len(scenarios) - len(frame)
     if lost:
-        print(f"aem-study: {lost} scenario(s) lost with their workers (Dask gave up on them): run again to "
-              f"run them", file=sys.stderr)
+        print(
+            f"aem-study: {lost} scenario(s) lost with their workers (Dask gave up on them): run again to run them",
+            file=sys.stderr,
+        )
     return 0 if (frame["status"] == "done").all() and not lost else 1
 
 
 def _list(study, out):
     from .store import Store
+
     store = Store(out, create=False)
     for s in study.scenarios():
         record = store.get(s.key)

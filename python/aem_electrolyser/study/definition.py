@@ -34,6 +34,7 @@ Everything in the file is checked when it is read, before anything runs: a mista
 StudyError, one line naming the file, the table and the key, what is allowed there and the
 nearest allowed name ("did you mean ...").
 """
+
 import hashlib
 import itertools
 import json
@@ -67,8 +68,8 @@ class StudyError(ValueError):
 @dataclass
 class Scenario:
     key: str
-    definition: dict   # what is run (hashed into the key)
-    labels: dict       # axis column -> value, for the table
+    definition: dict  # what is run (hashed into the key)
+    labels: dict  # axis column -> value, for the table
 
 
 def scenario_key(definition):
@@ -81,8 +82,7 @@ def _known(table, keys, where):
     """Refuses the first key of `table` that is not one of `keys`, suggesting the nearest."""
     for key in table:
         if key not in keys:
-            raise ValueError(f"{where}: unknown key {key!r}{did_you_mean(key, keys)}; "
-                             f"keys: {', '.join(keys)}")
+            raise ValueError(f"{where}: unknown key {key!r}{did_you_mean(key, keys)}; keys: {', '.join(keys)}")
 
 
 def _table(value, where):
@@ -135,8 +135,9 @@ class Study:
         here = self.path.resolve().parent
         for name in doc:
             if name not in TABLES:
-                raise ValueError(f"unknown table [{name}]{did_you_mean(name, TABLES)}; tables: "
-                                 f"{', '.join(f'[{t}]' for t in TABLES)}")
+                raise ValueError(
+                    f"unknown table [{name}]{did_you_mean(name, TABLES)}; tables: {', '.join(f'[{t}]' for t in TABLES)}"
+                )
             _table(doc[name], f"[{name}]")
         head = doc.get("study", {})
         _known(head, STUDY_KEYS, "[study]")
@@ -159,14 +160,16 @@ class Study:
         self.parameters = {}
         for name, value in doc.get("parameters", {}).items():
             if name in SPECIAL_AXES:
-                raise ValueError(f"[parameters] {name} is an axis, not an FMU parameter: give it under "
-                                 f"[axes] ({name} = [...])")
+                raise ValueError(
+                    f"[parameters] {name} is an axis, not an FMU parameter: give it under [axes] ({name} = [...])"
+                )
             self.parameters[name] = self._parameter(name, value, here, "[parameters]")
-        self.series = {name: self._series(name, _table(spec, f"[series.{name}]"), here)
-                       for name, spec in doc.get("series", {}).items()}
+        self.series = {
+            name: self._series(name, _table(spec, f"[series.{name}]"), here)
+            for name, spec in doc.get("series", {}).items()
+        }
         if not self.series:
-            raise ValueError("no [series.NAME] table: give a generated wind year (generator = \"wind\") "
-                             "or a file")
+            raise ValueError('no [series.NAME] table: give a generated wind year (generator = "wind") or a file')
         self.axes = self._axes(doc.get("axes", {}), here)
 
     def valid_axes(self):
@@ -195,25 +198,26 @@ class Study:
         if "generator" in spec:
             generator = spec.pop("generator")
             if generator != "wind":
-                raise ValueError(f"{where} generator = {generator!r}: the one generator is \"wind\"")
+                raise ValueError(f'{where} generator = {generator!r}: the one generator is "wind"')
             _known(spec, ("climate",), where)
             climate = _table(spec.pop("climate", {}), f"{where} climate")
             known = [f.name for f in fields(WindClimate)]
             for key, value in climate.items():
                 if key not in known:
-                    raise ValueError(f"{where} climate: unknown field {key!r}{did_you_mean(key, known)}; "
-                                     f"fields: {', '.join(known)}")
+                    raise ValueError(
+                        f"{where} climate: unknown field {key!r}{did_you_mean(key, known)}; fields: {', '.join(known)}"
+                    )
                 if not _number(value):
                     raise ValueError(f"{where} climate: {key} = {value!r} is not a number")
             return GeneratedWind(name, climate)
         if "file" not in spec:
-            raise ValueError(f"{where}: give generator = \"wind\" or file = \"...\"")
+            raise ValueError(f'{where}: give generator = "wind" or file = "..."')
         _known(spec, FILE_SERIES_KEYS, where)
         for key in ("file", "time", "column", "interpolation"):
             if key in spec and not isinstance(spec[key], str):
                 raise ValueError(f"{where} {key} must be a string, not {spec[key]!r}")
         if "column" not in spec:
-            raise ValueError(f"{where}: give column = \"NAME [unit]\" (W, kW, MW or %)")
+            raise ValueError(f'{where}: give column = "NAME [unit]" (W, kW, MW or %)')
         path = here / spec.pop("file")
         if not path.is_file():
             raise ValueError(f"{where} file: no file {path}")
@@ -241,27 +245,32 @@ class Study:
                     settings = _table(settings, f"[axes.{name}] {case}")
                     if not settings:
                         raise ValueError(f"[axes.{name}] {case}: set at least one FMU parameter")
-                    cases.append((case, {p: self._parameter(p, v, here, f"[axes.{name}] {case}:")
-                                         for p, v in settings.items()}))
+                    cases.append(
+                        (case, {p: self._parameter(p, v, here, f"[axes.{name}] {case}:") for p, v in settings.items()})
+                    )
                 axes.append((name, [(label, {"parameters": s}) for label, s in cases]))
                 continue
             valid = self.valid_axes()
             if name not in valid:
                 if name in self.model.RESERVED:
                     raise ValueError(f"{where}: {name} is set by aem-study from the series (power or setpoint)")
-                parameters = valid[len(SPECIAL_AXES):]
+                parameters = valid[len(SPECIAL_AXES) :]
                 raise ValueError(
                     f"[axes]: unknown axis {name!r}{did_you_mean(name, valid)}; valid axes: "
                     f"{', '.join(SPECIAL_AXES)}, a table of named cases [axes.NAME], or an FMU parameter "
-                    f"({', '.join(parameters)})")
+                    f"({', '.join(parameters)})"
+                )
             if not isinstance(values, list) or not values:
-                raise ValueError(f"{where}: give a non-empty list of values (or a table of named cases), "
-                                 f"not {values!r}")
+                raise ValueError(
+                    f"{where}: give a non-empty list of values (or a table of named cases), not {values!r}"
+                )
             if name == "series":
                 missing = [v for v in values if v not in self.series]
                 if missing:
-                    raise ValueError(f"{where}: no series {missing[0]!r}{did_you_mean(missing[0], self.series)}; "
-                                     f"series: {', '.join(self.series)}")
+                    raise ValueError(
+                        f"{where}: no series {missing[0]!r}{did_you_mean(missing[0], self.series)}; "
+                        f"series: {', '.join(self.series)}"
+                    )
                 axes.append(("series", [(v, {"series": v}) for v in values]))
             elif name == "seed":
                 bad = [v for v in values if not isinstance(v, int) or isinstance(v, bool) or v < 0]
@@ -271,17 +280,27 @@ class Study:
             elif name == "hub_size":
                 bad = [v for v in values if not _number(v) or not 0 < v < float("inf")]
                 if bad:
-                    raise ValueError(f"{where}: {bad[0]!r} is not a hub size (a positive number, % of the "
-                                     f"series' rating)")
+                    raise ValueError(
+                        f"{where}: {bad[0]!r} is not a hub size (a positive number, % of the series' rating)"
+                    )
                 axes.append(("hub size [%]", [(float(v), {"hub_size": float(v) / 100.0}) for v in values]))
             elif name in ("step", "horizon"):
                 col = "step [s]" if name == "step" else "horizon [h]"
                 seconds = [_positive_duration(v, where) for v in values]
                 axes.append((col, [(t / (1 if name == "step" else 3600), {name: t}) for t in seconds]))
             else:
-                axes.append((self.model.column(name),
-                             [(self.model.label(name, v), {"parameters": {name: self._parameter(name, v, here, "[axes]")}})
-                              for v in values]))
+                axes.append(
+                    (
+                        self.model.column(name),
+                        [
+                            (
+                                self.model.label(name, v),
+                                {"parameters": {name: self._parameter(name, v, here, "[axes]")}},
+                            )
+                            for v in values
+                        ],
+                    )
+                )
         if not any(col == "series" for col, _ in axes):
             axes.insert(0, ("series", [(name, {"series": name}) for name in self.series]))
         return axes
@@ -314,7 +333,11 @@ class Study:
             seed = settings.get("seed", 1)
             if isinstance(series, SeriesFile) and "seed" in labels:
                 labels["seed"] = None  # a file series has no seed
-            horizon = settings.get("horizon") or self.horizon or (YEAR if isinstance(series, GeneratedWind) else series.span())
+            horizon = (
+                settings.get("horizon")
+                or self.horizon
+                or (YEAR if isinstance(series, GeneratedWind) else series.span())
+            )
             hub_size = settings.get("hub_size")
             definition = {
                 "kpi version": KPI_VERSION,

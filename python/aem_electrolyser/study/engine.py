@@ -5,6 +5,7 @@ Every scenario is one Dask task named by its key; the FMU, aem-run and the serie
 each worker once (scattered, broadcast); a record is stored the moment its task finishes. A
 task whose worker dies is rerun by Dask on another worker; a study stopped with Ctrl-C keeps
 what finished. The KPIs do not depend on where a scenario ran (same binary, same inputs)."""
+
 import contextlib
 import logging
 import os
@@ -34,9 +35,11 @@ def runners(runner=None):
         portable = found.get(this_platform())
         if portable is None or (portable != own and portable.stat().st_mtime < own.stat().st_mtime):
             if portable is not None:
-                print(f"aem-study: {portable} is older than {own}: shipping the latter, which needs "
-                      f"this machine's C library on the workers (rebuild: packaging/platforms.py aem-run)",
-                      file=sys.stderr)
+                print(
+                    f"aem-study: {portable} is older than {own}: shipping the latter, which needs "
+                    f"this machine's C library on the workers (rebuild: packaging/platforms.py aem-run)",
+                    file=sys.stderr,
+                )
             found[this_platform()] = own
     for path in found.values():
         if not path.is_file():
@@ -46,12 +49,23 @@ def runners(runner=None):
 
 def bundle(study, runner=None):
     """What the workers need of `study`: the FMU, the runners, files and series."""
-    return Bundle(fmu=study.fmu_bytes, runners=runners(runner), files=dict(study.files),
-                  series=study.file_series_data())
+    return Bundle(
+        fmu=study.fmu_bytes, runners=runners(runner), files=dict(study.files), series=study.file_series_data()
+    )
 
 
-def run(study, out_dir, *, scheduler=None, workers=None, serial=False, runner=None,
-        retry_failed=False, stream=None, quiet=False):
+def run(
+    study,
+    out_dir,
+    *,
+    scheduler=None,
+    workers=None,
+    serial=False,
+    runner=None,
+    retry_failed=False,
+    stream=None,
+    quiet=False,
+):
     """Runs what is missing; returns {key: record} of every scenario of the study that has one.
     Progress on `stream` (stderr) unless `quiet` (study.progress)."""
     store = Store(out_dir)
@@ -86,6 +100,7 @@ def _run_serial(todo, payload, store, records, progress):
 @contextlib.contextmanager
 def _client(scheduler, workers):
     from distributed import Client, LocalCluster
+
     if scheduler:
         with Client(scheduler) as client:
             archive = _package_zip()
@@ -96,8 +111,17 @@ def _client(scheduler, workers):
             yield client
         return
     n = workers or os.cpu_count() or 1
-    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None, silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+    with (
+        LocalCluster(
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        ) as cluster,
+        Client(cluster) as client,
+    ):
         yield client
 
 
@@ -114,12 +138,14 @@ def _package_zip():
 
 def _run_dask(todo, payload, store, records, progress, scheduler, workers):
     from distributed import as_completed
+
     labels = {s.key: s.labels for s in todo}
     with _client(scheduler, workers) as client:
         threads = sum(client.nthreads().values())
         shared = client.scatter(payload, broadcast=True, hash=False)
-        futures = [client.submit(run_scenario, s.key, s.definition, shared, key=f"aem-study-{s.key}", pure=False)
-                   for s in todo]
+        futures = [
+            client.submit(run_scenario, s.key, s.definition, shared, key=f"aem-study-{s.key}", pure=False) for s in todo
+        ]
         pending = len(futures)
         try:
             for future in as_completed(futures):

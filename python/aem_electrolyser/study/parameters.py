@@ -1,5 +1,6 @@
 """FMU parameters by their model-description names: the value a study file gives, checked
 against the variable's type and, for enumerations, its items, as the text `aem-run` sets."""
+
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -11,7 +12,7 @@ from aem_electrolyser.cli import did_you_mean
 @dataclass(frozen=True)
 class Variable:
     name: str
-    type: str           # Real, Integer, Boolean, String or Enumeration
+    type: str  # Real, Integer, Boolean, String or Enumeration
     unit: str | None
     items: dict | None  # enumeration: item name -> code
 
@@ -25,10 +26,14 @@ class ModelParameters:
     def __init__(self, fmu: Path):
         md = read_model_description(str(fmu))
         self.variables = {
-            v.name: Variable(v.name, v.type, v.unit or (v.declaredType.unit if v.declaredType else None),
-                             {i.name: int(i.value) for i in v.declaredType.items}
-                             if v.type == "Enumeration" else None)
-            for v in md.modelVariables if v.causality == "parameter"
+            v.name: Variable(
+                v.name,
+                v.type,
+                v.unit or (v.declaredType.unit if v.declaredType else None),
+                {i.name: int(i.value) for i in v.declaredType.items} if v.type == "Enumeration" else None,
+            )
+            for v in md.modelVariables
+            if v.causality == "parameter"
         }
 
     def variable(self, name):
@@ -38,8 +43,9 @@ class ModelParameters:
         var = self.variables.get(name)
         if var is None:
             names = [n for n in self.variables if n not in self.RESERVED]
-            raise ValueError(f"the FMU has no parameter {name!r}{did_you_mean(name, names)}; "
-                             f"parameters: {', '.join(names)}")
+            raise ValueError(
+                f"the FMU has no parameter {name!r}{did_you_mean(name, names)}; parameters: {', '.join(names)}"
+            )
         return var
 
     def column(self, name):

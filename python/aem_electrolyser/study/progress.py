@@ -3,6 +3,7 @@
 As every command of the package (aem_electrolyser.cli.shows_progress): nothing with --quiet; a
 tqdm bar (its rate gives the estimate) only when stdout is a terminal and so is the stream the
 bar is drawn on; elsewhere (CI logs, files, pipes) one line per finished scenario."""
+
 import sys
 import time
 
@@ -25,8 +26,11 @@ class Progress:
         self.started = time.monotonic()
         self.stream = stream = stream or sys.stderr  # the stderr of now (a test may capture it)
         self.quiet = quiet
-        self.bar = tqdm(total=total, initial=stored, unit="scenario", file=stream, dynamic_ncols=True,
-                        leave=False) if draws_bar(stream, quiet) else None
+        self.bar = (
+            tqdm(total=total, initial=stored, unit="scenario", file=stream, dynamic_ncols=True, leave=False)
+            if draws_bar(stream, quiet)
+            else None
+        )
 
     def finished(self, record, running, labels):
         """One more scenario finished; `running` are executing now."""
@@ -43,8 +47,11 @@ class Progress:
         elapsed = time.monotonic() - self.started
         left = elapsed / ran * (self.total - self.done) if ran else float("nan")
         what = ", ".join(f"{k}={v}" for k, v in labels.items() if v is not None)
-        print(f"[{status}, {_clock(elapsed)} elapsed, ~{_clock(left)} left] {record['status']}: {what}",
-              file=self.stream, flush=True)
+        print(
+            f"[{status}, {_clock(elapsed)} elapsed, ~{_clock(left)} left] {record['status']}: {what}",
+            file=self.stream,
+            flush=True,
+        )
 
     def close(self):
         if self.bar is not None:

@@ -1,4 +1,5 @@
 """Durations and powers written with their unit in a study file ("365 d", "64 MW")."""
+
 import re
 
 SECONDS = {"s": 1.0, "min": 60.0, "h": 3600.0, "d": 86400.0}

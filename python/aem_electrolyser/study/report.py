@@ -13,6 +13,7 @@ What the report does not let pass silently:
 - a KPI or axis with one value over all scenarios is not plotted; the summary names it and its
   value under "Constant over the scenarios".
 """
+
 from __future__ import annotations
 
 import math
@@ -73,13 +74,16 @@ def layout(table: pd.DataFrame, axes: list) -> Layout:
     choices = [a for a in varying if a not in REPLICATES]
     candidates = choices or [a for a in varying if a in REPLICATES] or axes[:1]
     x = next((a for a in candidates if _numeric(table[a])), candidates[0] if candidates else None)
-    return Layout(x, [a for a in choices if a != x],
-                  [a for a in varying if a in REPLICATES and a != x],
-                  x is None or not _numeric(table[x]) or x in REPLICATES or x not in varying)
+    return Layout(
+        x,
+        [a for a in choices if a != x],
+        [a for a in varying if a in REPLICATES and a != x],
+        x is None or not _numeric(table[x]) or x in REPLICATES or x not in varying,
+    )
 
 
 def plot_kind(lay: Layout) -> str:
-    """"bars" (grouped by the line axes) for a categorical x, "lines" for a numeric one: a line
+    """ "bars" (grouped by the line axes) for a categorical x, "lines" for a numeric one: a line
     joins only values of a scale."""
     return "bars" if lay.categorical else "lines"
 
@@ -107,8 +111,9 @@ def ordered(table: pd.DataFrame, axes: list) -> pd.DataFrame:
 def read_csv(path: Path) -> pd.DataFrame:
     """kpis.csv as written: exact doubles, only empty cells as NaN (a series may be called
     "NA"), scenario keys as strings (a hex key such as "12e4" is no number), messages ""."""
-    table = pd.read_csv(path, float_precision="round_trip", keep_default_na=False,
-                        na_values=[""], dtype={c: str for c in LABELS})
+    table = pd.read_csv(
+        path, float_precision="round_trip", keep_default_na=False, na_values=[""], dtype={c: str for c in LABELS}
+    )
     return table.fillna({"message": ""})
 
 
@@ -173,8 +178,7 @@ def _panels(n: int):
 def _draw(ax, x, line: pd.DataFrame, label, i: int, spread: bool):
     """One line of means over a numeric x; the min-max over replicates as a band."""
     color = f"C{i % 10}"
-    ax.plot(x, line["mean"], marker="o", ms=4, color=color, ls="-" if i < 10 else "--",
-            label=label)
+    ax.plot(x, line["mean"], marker="o", ms=4, color=color, ls="-" if i < 10 else "--", label=label)
     if spread:
         ax.fill_between(x, line["min"], line["max"], color=color, alpha=0.2, lw=0)
 
@@ -183,11 +187,19 @@ def _bars(ax, x, line: pd.DataFrame, label, i: int, n: int, spread: bool):
     """Group member i of n at each category position x: a bar of the mean, the min-max over
     replicates as an error bar."""
     line = line.assign(at=np.asarray(x, dtype=float) + (i - (n - 1) / 2) * 0.8 / n).dropna(subset=["mean"])
-    ax.bar(line["at"], line["mean"], width=0.8 / n * 0.92, color=f"C{i % 10}", label=label,
-           hatch=None if i < 10 else "//")
+    ax.bar(
+        line["at"], line["mean"], width=0.8 / n * 0.92, color=f"C{i % 10}", label=label, hatch=None if i < 10 else "//"
+    )
     if spread:
-        ax.errorbar(line["at"], line["mean"], yerr=[line["mean"] - line["min"], line["max"] - line["mean"]],
-                    fmt="none", ecolor="0.2", capsize=3, lw=1)
+        ax.errorbar(
+            line["at"],
+            line["mean"],
+            yerr=[line["mean"] - line["min"], line["max"] - line["mean"]],
+            fmt="none",
+            ecolor="0.2",
+            capsize=3,
+            lw=1,
+        )
 
 
 def _split(table: pd.DataFrame, means: pd.DataFrame, lay: Layout) -> list:
@@ -196,8 +208,7 @@ def _split(table: pd.DataFrame, means: pd.DataFrame, lay: Layout) -> list:
     if not lay.lines or len(table[lay.lines].drop_duplicates()) <= MAX_LINES:
         return [(None, means, lay.lines)]
     first = lay.lines[0]
-    return [(f"{first}={_fmt(v)}", means[means[first] == v], lay.lines[1:])
-            for v in sorted(table[first].unique())]
+    return [(f"{first}={_fmt(v)}", means[means[first] == v], lay.lines[1:]) for v in sorted(table[first].unique())]
 
 
 def _x(line: pd.DataFrame, lay: Layout, cats: Optional[list]):
@@ -289,20 +300,30 @@ def caveats(rows: pd.DataFrame) -> list:
     grid import with its share of the energy drawn, wind not absorbed with its share of the
     wind offered, starts per module and in all. A KPI without values (a setpoint series has no
     wind) is left out."""
-    mean = {k: rows[k].astype(float).mean() if k in rows else np.nan
-            for k in (GRID, DRAWN, LOST, OFFERED, STARTS, MODULES)}
+    mean = {
+        k: rows[k].astype(float).mean() if k in rows else np.nan for k in (GRID, DRAWN, LOST, OFFERED, STARTS, MODULES)
+    }
     out = []
     if not pd.isna(mean[GRID]):
-        of = "" if pd.isna(mean[DRAWN]) else \
-            f", {_share(mean[GRID], mean[DRAWN])} of the {_fmt(mean[DRAWN])} {_unit(DRAWN)} drawn"
+        of = (
+            ""
+            if pd.isna(mean[DRAWN])
+            else f", {_share(mean[GRID], mean[DRAWN])} of the {_fmt(mean[DRAWN])} {_unit(DRAWN)} drawn"
+        )
         out.append(f"grid import: {_fmt(mean[GRID])} {_unit(GRID)}{of}")
     if not pd.isna(mean[LOST]):
-        of = "" if pd.isna(mean[OFFERED]) else \
-            f", {_share(mean[LOST], mean[OFFERED])} of the {_fmt(mean[OFFERED])} {_unit(OFFERED)} offered"
+        of = (
+            ""
+            if pd.isna(mean[OFFERED])
+            else f", {_share(mean[LOST], mean[OFFERED])} of the {_fmt(mean[OFFERED])} {_unit(OFFERED)} offered"
+        )
         out.append(f"wind not absorbed: {_fmt(mean[LOST])} {_unit(LOST)}{of}")
     if not pd.isna(mean[STARTS]):
-        total = "" if pd.isna(mean[MODULES]) else \
-            f", {_fmt(float((rows[STARTS].astype(float) * rows[MODULES].astype(float)).mean()))} in all"
+        total = (
+            ""
+            if pd.isna(mean[MODULES])
+            else f", {_fmt(float((rows[STARTS].astype(float) * rows[MODULES].astype(float)).mean()))} in all"
+        )
         out.append(f"starts: {_fmt(mean[STARTS])} per module{total}")
     return out
 
@@ -310,8 +331,9 @@ def caveats(rows: pd.DataFrame) -> list:
 def _best(table: pd.DataFrame, lay: Layout) -> list:
     """The configuration (mean over the replicates) with the most hydrogen, the least wind lost,
     each with its caveats (grid import, wind not absorbed, starts)."""
-    out = [f"Best cases (mean{_over(lay)}), with what they took:" if lay.replicates
-           else "Best cases, with what they took:"]
+    out = [
+        f"Best cases (mean{_over(lay)}), with what they took:" if lay.replicates else "Best cases, with what they took:"
+    ]
     done = table[table["status"] == "done"]
     keys = [a for a in (lay.x, *lay.lines) if a]
     for kpi, larger in BEST.items():
@@ -322,8 +344,7 @@ def _best(table: pd.DataFrame, lay: Layout) -> list:
         best = means.loc[means["mean"].idxmax() if larger else means["mean"].idxmin()]
         where = _where(best, keys)
         where = f"at {where}" if where else "(one scenario)"
-        out.append(f"  {'largest' if larger else 'smallest'} {kpi}: "
-                   f"{_fmt(best['mean'])} {_unit(kpi)} {where}")
+        out.append(f"  {'largest' if larger else 'smallest'} {kpi}: {_fmt(best['mean'])} {_unit(kpi)} {where}")
         rows = done[np.logical_and.reduce([done[a] == best[a] for a in keys])] if keys else done
         out += [f"    {line}" for line in caveats(rows)]
     return out
@@ -351,8 +372,7 @@ def _pivot_text(table: pd.DataFrame, axes: list, lay: Layout) -> list:
     frame.index = frame.index.map(_fmt) if lay.x else [""]
     cols = f" (rows) and {', '.join(lay.lines)} (columns)" if lay.lines else ""
     by = f" by {lay.x}{cols}" if lay.x else ""
-    return ([f"Mean {PIVOT_KPI}{_over(lay)}{by}:"]
-            + ["  " + line for line in frame.to_string().splitlines()])
+    return [f"Mean {PIVOT_KPI}{_over(lay)}{by}:"] + ["  " + line for line in frame.to_string().splitlines()]
 
 
 def summary(table: pd.DataFrame, axes: list, title: str) -> str:
@@ -360,24 +380,34 @@ def summary(table: pd.DataFrame, axes: list, title: str) -> str:
     with their caveats and the pivot."""
     lay = layout(table, axes)
     done = table[table["status"] == "done"]
-    head = [f"Study: {title}", f"Scenarios: {len(done)} done, {len(table) - len(done)} failed "
-            f"({len(table)} in all)", "", "Axes:" if axes else "Axes: none"]
+    head = [
+        f"Study: {title}",
+        f"Scenarios: {len(done)} done, {len(table) - len(done)} failed ({len(table)} in all)",
+        "",
+        "Axes:" if axes else "Axes: none",
+    ]
     head += [f"  {_axis_values(table, a)}" for a in axes]
-    parts = [head, _failures(table, axes), _ranges(done), _constants(table, axes), _best(table, lay),
-             _pivot_text(table, axes, lay)]
+    parts = [
+        head,
+        _failures(table, axes),
+        _ranges(done),
+        _constants(table, axes),
+        _best(table, lay),
+        _pivot_text(table, axes, lay),
+    ]
     return "\n\n".join("\n".join(p) for p in parts if p) + "\n"
 
 
-def write_report(table: pd.DataFrame, axes: list[str], out_dir: Path, title: str,
-                 plots: bool = True) -> dict[str, Path]:
+def write_report(
+    table: pd.DataFrame, axes: list[str], out_dir: Path, title: str, plots: bool = True
+) -> dict[str, Path]:
     """Write kpis.parquet, kpis.csv, summary.txt and (if `plots`) plots/<slug>.png for each
     KPI with a finite value that is not constant (constant_kpis) into out_dir; returns {path
     relative to out_dir: path}."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     table = ordered(table, list(axes))
-    written = {"kpis.parquet": out / "kpis.parquet", "kpis.csv": out / "kpis.csv",
-               "summary.txt": out / "summary.txt"}
+    written = {"kpis.parquet": out / "kpis.parquet", "kpis.csv": out / "kpis.csv", "summary.txt": out / "summary.txt"}
     table.to_parquet(written["kpis.parquet"], index=False)
     table.to_csv(written["kpis.csv"], index=False)
     written["summary.txt"].write_text(summary(table, list(axes), title), encoding="utf-8")

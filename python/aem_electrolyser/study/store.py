@@ -1,6 +1,7 @@
 """Finished scenarios on disk, one JSON file per scenario named by its key, written the
 moment the scenario finishes (atomically: a stopped study never leaves half a record), so a
 study resumes where it stopped and never runs a stored scenario again."""
+
 import json
 import os
 from pathlib import Path

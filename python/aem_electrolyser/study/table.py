@@ -1,5 +1,6 @@
 """The study's table: one row per scenario in the study's order, its axis values, its KPIs
 (with units), how it ran."""
+
 import numpy as np
 import pandas as pd
 

@@ -3,6 +3,7 @@
 
 The same function runs a scenario serially and on a Dask worker, so a study's KPIs are the
 same bit for bit either way."""
+
 import hashlib
 import json
 import os
@@ -31,6 +32,7 @@ def this_platform():
 class Bundle:
     """What every worker needs, sent once per worker: the FMU, aem-run per platform, the
     files String parameters name (by sha256) and the file series (sha256 -> (times, values))."""
+
     fmu: bytes
     runners: dict
     files: dict
@@ -69,11 +71,18 @@ def run_scenario(key: str, definition: dict, bundle: Bundle) -> dict:
     try:
         runner = bundle.runners.get(this_platform())
         if runner is None:
-            raise ScenarioError(f"no aem-run for this worker's platform {this_platform()} "
-                              f"(the client has {', '.join(bundle.runners)})")
-        args = [str(_materialise(runner, "-aem-run.exe" if os.name == "nt" else "-aem-run", executable=True)),
-                "--fmu", str(_materialise(bundle.fmu, ".fmu")),
-                "--step", repr(definition["step [s]"]), "--input", definition["input"]]
+            raise ScenarioError(
+                f"no aem-run for this worker's platform {this_platform()} (the client has {', '.join(bundle.runners)})"
+            )
+        args = [
+            str(_materialise(runner, "-aem-run.exe" if os.name == "nt" else "-aem-run", executable=True)),
+            "--fmu",
+            str(_materialise(bundle.fmu, ".fmu")),
+            "--step",
+            repr(definition["step [s]"]),
+            "--input",
+            definition["input"],
+        ]
         for name, value in definition["parameters"].items():
             if value.startswith("file:sha256:"):
                 value = str(_materialise(bundle.files[value.removeprefix("file:sha256:")], ".data"))
@@ -81,7 +90,12 @@ def run_scenario(key: str, definition: dict, bundle: Bundle) -> dict:
         if definition["hub size"] is not None:
             if definition["input"] != "power" or not definition["source rating [W]"]:
                 raise ScenarioError("a hub size relative to the source needs a power series with a rating")
-            args += ["--hub-size", repr(definition["hub size"]), "--source-rating", repr(definition["source rating [W]"])]
+            args += [
+                "--hub-size",
+                repr(definition["hub size"]),
+                "--source-rating",
+                repr(definition["source rating [W]"]),
+            ]
         step, horizon = definition["step [s]"], definition["horizon [s]"]
         steps = round(horizon / step)
         if steps < 1 or abs(steps * step - horizon) > 1e-9 * horizon:
@@ -99,11 +113,17 @@ def run_scenario(key: str, definition: dict, bundle: Bundle) -> dict:
         except json.JSONDecodeError:
             raise ScenarioError(f"aem-run exited with {done.returncode}: {done.stderr.strip() or done.stdout.strip()}")
         if report["status"] == "done" and report.get("kpi version") != definition["kpi version"]:
-            raise ScenarioError(f"aem-run computes KPIs of version {report.get('kpi version')}, the study expects "
-                              f"{definition['kpi version']}: ship the aem-run of this checkout")
-        record.update(status=report["status"], message=report.get("message", ""),
-                      kpis=report.get("kpis", {}), messages=report.get("messages", []),
-                      **({"run time [s]": report["run time [s]"]} if "run time [s]" in report else {}))
+            raise ScenarioError(
+                f"aem-run computes KPIs of version {report.get('kpi version')}, the study expects "
+                f"{definition['kpi version']}: ship the aem-run of this checkout"
+            )
+        record.update(
+            status=report["status"],
+            message=report.get("message", ""),
+            kpis=report.get("kpis", {}),
+            messages=report.get("messages", []),
+            **({"run time [s]": report["run time [s]"]} if "run time [s]" in report else {}),
+        )
     except (SeriesError, OSError, ValueError) as e:
         record.update(status="failed", message=str(e), kpis={}, messages=[])
     return record

@@ -31,6 +31,7 @@ Model (simple and documented; every number below is a default that can be change
   between cut-in 4 m/s and cut-out 25 m/s (the V164's published cut-in and cut-out speeds),
   zero outside; rated power is reached at 11.2 m/s. Electrical losses are neglected.
 """
+
 import csv
 from dataclasses import dataclass
 
@@ -38,14 +39,13 @@ import numpy as np
 from aem_electrolyser import cli
 
 
-
 @dataclass(frozen=True)
 class Site:
-    mean_speed: float = 10.0          # hub-height mean wind [m/s]
+    mean_speed: float = 10.0  # hub-height mean wind [m/s]
     turbulence_intensity: float = 0.08  # σ/V [1]
     length_scale: float = 8.1 * 42.0  # Kaimal integral scale L [m] (IEC 61400-1, hub > 60 m)
-    spacing: float = 1000.0           # representative turbine spacing d [m]
-    coherence_decay: float = 4.0      # Davenport decay a [1]; inf = independent turbines
+    spacing: float = 1000.0  # representative turbine spacing d [m]
+    coherence_decay: float = 4.0  # Davenport decay a [1]; inf = independent turbines
 
     @property
     def sigma(self):
@@ -54,12 +54,12 @@ class Site:
 
 @dataclass(frozen=True)
 class Turbine:
-    rated_power: float = 8e6          # [W]
-    rotor_diameter: float = 164.0     # [m]
-    power_coefficient: float = 0.44   # C_p below rated [1]
-    air_density: float = 1.225        # [kg/m³]
-    cut_in: float = 4.0               # [m/s]
-    cut_out: float = 25.0             # [m/s]
+    rated_power: float = 8e6  # [W]
+    rotor_diameter: float = 164.0  # [m]
+    power_coefficient: float = 0.44  # C_p below rated [1]
+    air_density: float = 1.225  # [kg/m³]
+    cut_in: float = 4.0  # [m/s]
+    cut_out: float = 25.0  # [m/s]
 
     @property
     def rated_speed(self):
@@ -120,8 +120,7 @@ def power_curve(speed, turbine=Turbine()):
     return np.where((v >= turbine.cut_in) & (v < turbine.cut_out), p, 0.0)
 
 
-def farm_power(duration, dt=1.0, site=Site(), turbine=Turbine(), n_turbines=N_TURBINES, seed=1,
-               rotor_filter=True):
+def farm_power(duration, dt=1.0, site=Site(), turbine=Turbine(), n_turbines=N_TURBINES, seed=1, rotor_filter=True):
     """(time [s], farm power [W], turbine wind speeds [m/s]) for a seeded record; the speeds
     are the rotor-effective ones that drive the power curve."""
     speeds = turbulent_speeds(duration, dt, site, n_turbines, seed)
@@ -162,9 +161,11 @@ def main(argv=None):
     if args.quiet:
         return
     rated = N_TURBINES * Turbine().rated_power
-    print(f"wind farm {rated / 1e6:.0f} MW, {t.size} s: mean {p.mean() / 1e6:.2f} MW "
-          f"(capacity factor {p.mean() / rated:.2f}), min {p.min() / 1e6:.2f} MW, max {p.max() / 1e6:.2f} MW, "
-          f"std {p.std() / 1e6:.2f} MW, largest 1 s change {np.abs(np.diff(p)).max() / 1e6:.2f} MW")
+    print(
+        f"wind farm {rated / 1e6:.0f} MW, {t.size} s: mean {p.mean() / 1e6:.2f} MW "
+        f"(capacity factor {p.mean() / rated:.2f}), min {p.min() / 1e6:.2f} MW, max {p.max() / 1e6:.2f} MW, "
+        f"std {p.std() / 1e6:.2f} MW, largest 1 s change {np.abs(np.diff(p)).max() / 1e6:.2f} MW"
+    )
     print(f"wrote {path}")
 
 

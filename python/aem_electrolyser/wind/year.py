@@ -39,6 +39,7 @@ Model (every number is a default field of `WindClimate`; time t = 0 is 1 January
   round(chunk/dt) samples and are always synthesised whole, so a shorter run is the start of
   a longer one with the same dt, and the thread count does not change the result.
 """
+
 import math
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
@@ -52,21 +53,21 @@ from aem_electrolyser import cli
 from aem_electrolyser.wind.farm import N_TURBINES, Site, Turbine, power_curve, rotor_effective, turbulent_speeds
 
 FARM_RATING = N_TURBINES * Turbine().rated_power  # [W]
-HOUR, DAY, YEAR_DAYS = 3600.0, 86400.0, 365.25    # [s], [s], [d]
+HOUR, DAY, YEAR_DAYS = 3600.0, 86400.0, 365.25  # [s], [s], [d]
 
 
 @dataclass(frozen=True)
 class WindClimate:
-    mean_speed: float = 10.0            # long-term mean hourly hub-height wind V̄ [m/s]
-    weibull_shape: float = 2.2          # k [1]
-    persistence: float = 0.975          # φ, lag-1 h autocorrelation of z_h [1]
-    seasonal_amplitude: float = 0.18    # a_s [1]
-    peak_day: float = 15.0              # winter maximum, days after 1 January 00:00 [d]
-    diurnal_amplitude: float = 0.02     # a_d [1]
-    peak_hour: float = 18.0             # hour of the diurnal maximum [h]
+    mean_speed: float = 10.0  # long-term mean hourly hub-height wind V̄ [m/s]
+    weibull_shape: float = 2.2  # k [1]
+    persistence: float = 0.975  # φ, lag-1 h autocorrelation of z_h [1]
+    seasonal_amplitude: float = 0.18  # a_s [1]
+    peak_day: float = 15.0  # winter maximum, days after 1 January 00:00 [d]
+    diurnal_amplitude: float = 0.02  # a_d [1]
+    peak_hour: float = 18.0  # hour of the diurnal maximum [h]
     turbulence_intensity: float = 0.08  # TI = σ/V [1]
-    chunk: float = 3 * HOUR             # turbulence record without its overlap [s]
-    overlap: float = 720.0              # blend of consecutive records [s]; 3 h + 12 min = 2^8·3²·5 s
+    chunk: float = 3 * HOUR  # turbulence record without its overlap [s]
+    overlap: float = 720.0  # blend of consecutive records [s]; 3 h + 12 min = 2^8·3²·5 s
 
     @property
     def weibull_scale(self):
@@ -106,8 +107,9 @@ def _synthesise(duration, dt, seed, climate, emit, threads, rotor_filter=True):
     n = int(round(duration / dt))
     m, o = int(round(climate.chunk / dt)), int(round(climate.overlap / dt))
     if n < 1 or m < 2 or not 0 <= o <= m:
-        raise ValueError(f"need duration ≥ dt, chunk ≥ 2 dt and 0 ≤ overlap ≤ chunk "
-                         f"(duration {duration} s, dt {dt} s, {climate})")
+        raise ValueError(
+            f"need duration ≥ dt, chunk ≥ 2 dt and 0 ≤ overlap ≤ chunk (duration {duration} s, dt {dt} s, {climate})"
+        )
     chunks = -(-n // m)
     hours = math.ceil((chunks * m + o) * dt / HOUR) + 1
     midpoints, hourly = (np.arange(hours) + 0.5) * HOUR, hourly_mean_wind(hours, seed, climate)
@@ -118,10 +120,10 @@ def _synthesise(duration, dt, seed, climate, emit, threads, rotor_filter=True):
     def send(k0, mean, u):
         k1 = min(k0 + mean.size, n)
         if k1 > k0:
-            v = u[:, :k1 - k0] * ti
+            v = u[:, : k1 - k0] * ti
             v += 1.0
-            v *= mean[:k1 - k0]
-            emit(k0, k1, v, mean[:k1 - k0])
+            v *= mean[: k1 - k0]
+            emit(k0, k1, v, mean[: k1 - k0])
 
     def record(j):
         """Mean wind [m/s] and unit rotor-effective turbulence [1] of samples j m … (j+1) m + o."""
@@ -182,8 +184,10 @@ def farm_power_year(duration, dt=1.0, seed=1, climate=WindClimate(), threads=2):
 def plot(power, dt, path):
     """Monthly (calendar, 365-day years) mean power and the first week, in MW, to a PNG."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
     months = np.tile([31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31], math.ceil(power.size * dt / DAY / 365) or 1)
     edges = np.concatenate([[0], np.cumsum(months)]) * DAY / dt
     edges = np.unique(np.minimum(edges.astype(np.int64), power.size))
@@ -216,10 +220,12 @@ def main(argv=None):
     if args.quiet:
         return
     h = args.dt / HOUR
-    print(f"{args.days:g} days at {args.dt:g} s, seed {args.seed}: mean {p.mean() / 1e6:.2f} MW "
-          f"(capacity factor {p.mean() / FARM_RATING:.3f}), {np.count_nonzero(p == 0) * h:.0f} h at zero, "
-          f"{np.count_nonzero(p >= FARM_RATING) * h:.0f} h at rated, "
-          f"largest {args.dt:g} s change {np.abs(np.diff(p)).max(initial=0) / 1e6:.2f} MW")
+    print(
+        f"{args.days:g} days at {args.dt:g} s, seed {args.seed}: mean {p.mean() / 1e6:.2f} MW "
+        f"(capacity factor {p.mean() / FARM_RATING:.3f}), {np.count_nonzero(p == 0) * h:.0f} h at zero, "
+        f"{np.count_nonzero(p >= FARM_RATING) * h:.0f} h at rated, "
+        f"largest {args.dt:g} s change {np.abs(np.diff(p)).max(initial=0) / 1e6:.2f} MW"
+    )
     print(f"wrote {path}")
 
 
