@@ -724,7 +724,9 @@ fn table() -> String {
 #[test]
 fn robustness_md_lists_what_every_bad_input_gets() {
     let generated = table();
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs").join("robustness.md");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("docs")
+        .join("robustness.md");
     let text = std::fs::read_to_string(&path).unwrap_or_default();
     let (Some(a), Some(b)) = (text.find(BEGIN), text.find(END)) else {
         panic!("docs/robustness.md lacks the markers {BEGIN} … {END}");

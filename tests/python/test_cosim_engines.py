@@ -26,6 +26,9 @@ from fmpy.fmi2 import FMU2Slave
 
 from conftest import ROOT, unlimited_step_response
 
+# libcosim and Ecos
+pytestmark = [pytest.mark.cosim]
+
 SCHEDULE = ROOT / "tests" / "data" / "importer_schedule.csv"
 STEP = 0.5
 OUTPUTS = ("current", "voltage", "power", "h2Flow", "energy", "h2Produced")

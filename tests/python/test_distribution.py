@@ -35,6 +35,9 @@ TRUTH = dict(gain=0.512, rampUpLimit=0.18, voltageIntercept=36.4, ohmicResistanc
 KG_PER_NL = 2.01588e-3 / 22.413969545014137
 UV = Path(sys.executable).parent / "uv"
 
+# the release bundle in dist/ (packaging/release.py) in fresh environments
+pytestmark = [pytest.mark.slow]
+
 
 def dist_file(name):
     path = DIST / name
@@ -200,6 +203,7 @@ def wheel_metadata(wheel):
         return names, z.read(info + "WHEEL").decode(), z.read(info + "METADATA").decode(), z
 
 
+@pytest.mark.wine
 def test_the_windows_wheel_holds_the_windows_commands_and_both_binaries(wine, tmp_path):
     wheel = dist_file(f"aem_electrolyser-{VERSION}-py3-none-win_amd64.whl")
     names, tags, metadata, _ = wheel_metadata(wheel)
@@ -260,6 +264,7 @@ def test_the_sdist_builds_a_working_wheel_from_its_own_files(tmp_path):
     bin_dir, venv_env = fresh_venv(tmp_path / "venv", str(wheel))
     code = """
 import aem_electrolyser, fmpy
+
 r = fmpy.simulate_fmu(str(aem_electrolyser.fmu_path()), stop_time=2.0, start_values={"setpoint": 70.0}, output=["current"])
 print(r["current"][-1])
 """

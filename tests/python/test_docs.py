@@ -31,9 +31,10 @@ docs_reference = load_generator()
 
 
 @pytest.fixture(scope="module")
-def site(tmp_path_factory):
-    """The site, built strictly into a fresh folder."""
-    out = tmp_path_factory.mktemp("site")
+def site():
+    """The site, built strictly into target/site (the suite's build of it: scripts/test.sh and
+    scripts/check.sh build it here, once)."""
+    out = ROOT / "target" / "site"
     done = subprocess.run(
         [
             sys.executable,

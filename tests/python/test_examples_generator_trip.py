@@ -18,7 +18,11 @@ from conftest import PAPER, modal_weights, module_power, setpoint_for
 
 from aem_electrolyser.examples import generator_trip
 
-pytestmark = pytest.mark.filterwarnings("ignore:numpy.core is deprecated:DeprecationWarning")  # inside tops
+# TOPS co-simulations
+pytestmark = [
+    pytest.mark.cosim,
+    pytest.mark.filterwarnings("ignore:numpy.core is deprecated:DeprecationWarning"),
+]  # inside tops
 
 DURATION, TRIP, EXCHANGE, DT = 10.0, 1.0, 0.1, 5e-3
 CAPACITY, LOAD, N = 12e6, 0.8, generator_trip.N_MODULES

@@ -10,7 +10,11 @@ from aem_electrolyser.examples import grid_cosim, wind_hub
 from aem_electrolyser.hub import HubFMU
 
 HUB = HubFMU
-pytestmark = pytest.mark.filterwarnings("ignore:numpy.core is deprecated:DeprecationWarning")  # inside tops
+# TOPS co-simulations
+pytestmark = [
+    pytest.mark.cosim,
+    pytest.mark.filterwarnings("ignore:numpy.core is deprecated:DeprecationWarning"),
+]  # inside tops
 
 
 @pytest.fixture(scope="module")

@@ -110,6 +110,7 @@ def test_step_responses_match_the_closed_form(fmu_path, tmp_path):
     assert len(header) == 11
 
 
+@pytest.mark.slow
 def test_validation_day_recovers_the_truth_through_the_fmu(tmp_path):
     shipped = hashlib.sha256(FMU_PATH.read_bytes()).hexdigest() if FMU_PATH is not None else None
     out = run_example("validation_day", "--out", tmp_path, "--days", 2, "--hours", 4, "--seed", 11)

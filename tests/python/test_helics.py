@@ -49,7 +49,8 @@ from aem_electrolyser.hub import HubFMU
 from aem_electrolyser.wind.farm import farm_power
 
 #: Every test here bounds how long processes may take to end: they run alone (scripts/test.sh).
-pytestmark = pytest.mark.serial
+# HELICS federations: the co-simulation lane, one at a time (serial)
+pytestmark = [pytest.mark.cosim, pytest.mark.serial]
 
 #: The runner file ships with the package, beside the federates.
 PACKAGE = Path(aem_electrolyser.helics.__file__).parent

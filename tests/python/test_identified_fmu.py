@@ -16,6 +16,9 @@ from fmpy import read_model_description, simulate_fmu
 
 from conftest import ROOT
 
+# rebuilds the FMU's library from identified parameters
+pytestmark = [pytest.mark.slow]
+
 PACKAGE = ROOT / "packaging" / "package.py"
 
 #: Identified values (the synthetic campaign's truth) with the model description's units.

@@ -31,6 +31,9 @@ import pytest
 
 from conftest import PAPER, ROOT, Driver, modal_weights, unlimited_step_response
 
+# the fmi crate's master built by the Rust tests, valgrind
+pytestmark = [pytest.mark.slow]
+
 SCHEDULE = ROOT / "tests" / "data" / "importer_schedule.csv"
 FMI_CRATE_MASTER = (
     Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))

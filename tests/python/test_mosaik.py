@@ -30,6 +30,9 @@ SCENARIO = ["-m", "aem_electrolyser.mosaik.cigre_scenario"]
 SEED, DURATION, N = 1, 3600, 25_000
 HUB_OUTPUTS = ["hubPower", "hubEnergy", "hubH2Produced", "modulesRunning", "modulesStandby"]
 
+# mosaik and pandapower: the co-simulation lane of scripts/test.sh
+pytestmark = [pytest.mark.cosim]
+
 
 def alone(fmu, reference, h=1.0, outputs=HUB_OUTPUTS, **parameters):
     """The FMU alone in fmpy: reference[k] [W] held over [k h, (k+1) h); outputs at k h, k = 0..len."""
@@ -186,6 +189,7 @@ def test_fmu_errors_name_the_entity_and_the_fmus_message(fmu_path):
 MOSAIK_ERROR = """
 import sys
 import mosaik
+
 cfg = {"AEM": {"python": "aem_electrolyser.mosaik.simulator:AemSimulator"}, "Rec": {"python": "mosaik.basic_simulators:OutputSimulator"}}
 with mosaik.World(cfg, skip_greetings=True, configure_logging=False) as world:
     hub = world.start("AEM", fmu=sys.argv[1]).Hub(nModules=-5)

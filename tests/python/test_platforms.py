@@ -21,6 +21,9 @@ import pytest
 
 from conftest import ROOT, windows_path
 
+# the win64 binaries under Wine and the glibc level of the release builds
+pytestmark = [pytest.mark.wine]
+
 MODEL = "AemElectrolyser"
 WINE = Path("/usr/lib/wine/wine64")
 MINGW_GCC = "x86_64-w64-mingw32-gcc"

@@ -156,6 +156,7 @@ hub_size = [50, 90]
 )
 
 
+@pytest.mark.cluster
 def test_the_cluster_gives_the_serial_kpis_bit_for_bit(tmp_path, fmu_path):
     path = write_study(tmp_path, WIND_STUDY, fmu_path)
     _, serial = run_study(path, tmp_path / "serial", serial=True)
@@ -177,6 +178,7 @@ def test_the_cluster_gives_the_serial_kpis_bit_for_bit(tmp_path, fmu_path):
     assert (serial[serial["mode"] == "sequential"]["starts per module [1]"] > 0).all()
 
 
+@pytest.mark.cluster
 def test_a_refused_parameter_and_a_bad_series_fail_alone(tmp_path, fmu_path):
     (tmp_path / "bad.csv").write_text("time [s],power [MW]\n0,10\n1,ten\n2,10\n")
     (tmp_path / "good.csv").write_text("time [s],power [MW]\n0,1\n600,1\n")
@@ -445,6 +447,7 @@ def children(pid):
 
 
 @pytest.mark.serial
+@pytest.mark.cluster
 def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
     path = write_study(tmp_path, SLOW_STUDY, fmu_path)
     out = tmp_path / "out"
@@ -478,6 +481,7 @@ def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
 
 
 @pytest.mark.serial
+@pytest.mark.cluster
 def test_a_killed_worker_loses_nothing(tmp_path, fmu_path):
     path = write_study(tmp_path, SLOW_STUDY, fmu_path)
     out = tmp_path / "out"
@@ -560,6 +564,7 @@ print(json.dumps(worker.run_scenario(*pickle.loads(open({str(job)!r}, "rb").read
         os.unlink(archive)
 
 
+@pytest.mark.cluster
 def test_an_existing_cluster_runs_the_study_as_the_serial_run(tmp_path, fmu_path):
     """`--scheduler`: a `dask scheduler` and a `dask worker` of two processes on the loopback."""
     path = write_study(tmp_path, SMALL_WIND, fmu_path)

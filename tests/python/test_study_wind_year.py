@@ -204,6 +204,7 @@ def test_power_follows_the_hourly_wind_through_the_power_curve():
     assert p.mean() == pytest.approx(quasi_steady.mean(), rel=0.05)
 
 
+@pytest.mark.slow
 def test_a_year_at_1_s_runs_in_range():
     start = time.perf_counter()
     p = farm_power_year(365 * DAY, seed=1)

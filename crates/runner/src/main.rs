@@ -251,7 +251,11 @@ fn main() {
             // The worker reads the JSON; a person reads this line. An FMU that does not load
             // or a parameter it does not have is a bad argument found once the FMU is read.
             eprintln!("aem-run: error: {message}");
-            let code = if error_names_an_argument(&message) { 2 } else { 1 };
+            let code = if error_names_an_argument(&message) {
+                2
+            } else {
+                1
+            };
             (json!({ "status": "failed", "message": message }), code)
         }
     };
