@@ -48,9 +48,10 @@ from aem_electrolyser.helics.records import read
 from aem_electrolyser.hub import HubFMU
 from aem_electrolyser.wind.farm import farm_power
 
-#: Every test here bounds how long processes may take to end: they run alone (scripts/test.sh).
-# HELICS federations: the co-simulation lane, one at a time (serial)
-pytestmark = [pytest.mark.cosim, pytest.mark.serial]
+# HELICS federations (the co-simulation lane). Each federation has its own free ports and broker
+# key, so they run beside the other tests; the bounds on how long processes may take to end are
+# generous enough for a machine whose cores are all busy.
+pytestmark = [pytest.mark.cosim]
 
 #: The runner file ships with the package, beside the federates.
 PACKAGE = Path(aem_electrolyser.helics.__file__).parent
