@@ -112,7 +112,7 @@ def _build_from_source(root, target):
             "--platforms",
             "linux64",
             *native,
-            "--out",
+            "--output",
             str(fmu),
         ],
         cwd=root,

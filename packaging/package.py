@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Build the release library and zip it with the model description into an FMU.
 
-    .venv/bin/python packaging/package.py [--out target/fmu/AemElectrolyser.fmu] [--no-build]
-    .venv/bin/python packaging/package.py --parameters params.json [--module ID] --out my.fmu
+    .venv/bin/python packaging/package.py [--output target/fmu/AemElectrolyser.fmu] [--no-build]
+    .venv/bin/python packaging/package.py --parameters params.json [--module ID] --output my.fmu
 
 With --integer-enumerations, dispatch, belowMinimum and operatingState are declared as plain
 Integers (same value references, same codes, ranges from the enumerations' items) in the
@@ -10,7 +10,7 @@ shipped model description: for importers that ignore FMI enumerations (libcosim 
 do), so that their users can still set a hub's dispatch. The binary is the same; with
 --from FMU an FMU already built is repackaged that way, without building:
 
-    .venv/bin/python packaging/package.py --integer-enumerations --from target/fmu/AemElectrolyser.fmu --out AemInteger.fmu
+    .venv/bin/python packaging/package.py --integer-enumerations --from target/fmu/AemElectrolyser.fmu --output AemInteger.fmu
 
 With --parameters (a file written by `aem-identify fit -o`), the FMU's parameter start values
 are the identified ones: the copy of modelDescription.xml that goes into the zip gets them
@@ -222,8 +222,19 @@ def write_fmu(out: Path, files):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", type=Path, default=TARGET / "fmu" / f"{MODEL_IDENTIFIER}.fmu")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter, allow_abbrev=False
+    )
+    parser.add_argument(
+        "-o",
+        "--output",
+        dest="out",
+        type=Path,
+        metavar="FILE.fmu",
+        default=TARGET / "fmu" / f"{MODEL_IDENTIFIER}.fmu",
+        help="the FMU file to write (as aem-identify fit's --output; --out names folders) "
+        f"[default: target/fmu/{MODEL_IDENTIFIER}.fmu]",
+    )
     parser.add_argument("--no-build", action="store_true", help="use the libraries already built")
     parser.add_argument(
         "--platforms",

@@ -158,7 +158,7 @@ def closed_stdout_case(name, tmp, fmu):
         if not platforms:
             pytest.skip("no built library comes from modelDescription.xml (python packaging/package.py builds one)")
         return (
-            ["packaging/package.py", "--no-build", "--platforms", ",".join(platforms), "--out", tmp / "x.fmu"],
+            ["packaging/package.py", "--no-build", "--platforms", ",".join(platforms), "--output", tmp / "x.fmu"],
             [tmp / "x.fmu"],
         )
     if name == "cross_check":
@@ -249,7 +249,7 @@ def unwritable_case(name, blocked, tmp, fmu):
         "wind_farm": ["-m", "aem_electrolyser.wind.farm", "--out", blocked],
         "wind_hub": ["-m", "aem_electrolyser.examples.wind_hub", "--fmu", fmu, "--out", blocked / "wh"],
         "grid_cosim": ["-m", "aem_electrolyser.examples.grid_cosim", "--fmu", fmu, "--out", blocked / "gc"],
-        "package": ["packaging/package.py", "--no-build", "--out", blocked / "x.fmu"],
+        "package": ["packaging/package.py", "--no-build", "--output", blocked / "x.fmu"],
         "cross_check": ["packaging/cross_check.py", "--fmu", fmu, "--out", blocked],
         "plot_validation": [
             "-m",

@@ -107,7 +107,7 @@ def integer_fmu(fmu_path, tmp_path_factory):
             "--integer-enumerations",
             "--from",
             str(fmu_path),
-            "--out",
+            "--output",
             str(out),
         ],
         check=True,

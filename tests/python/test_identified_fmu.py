@@ -70,7 +70,7 @@ def test_identified_values_are_the_start_values_and_the_binary_defaults(tmp_path
     repo_xml = (ROOT / "modelDescription.xml").read_bytes()
     params = parameter_file(tmp_path / "params.json", IDENTIFIED)
     out = tmp_path / "Identified.fmu"
-    result = package("--parameters", params, "--out", out)
+    result = package("--parameters", params, "--output", out)
     assert result.returncode == 0, result.stdout + result.stderr
     assert (ROOT / "modelDescription.xml").read_bytes() == repo_xml, "the repository's model description changed"
 
@@ -113,7 +113,7 @@ def test_identified_values_are_the_start_values_and_the_binary_defaults(tmp_path
 def test_bad_parameter_files_are_refused_before_building(tmp_path, name, entry, message):
     params = parameter_file(tmp_path / "bad.json", {name: entry})
     out = tmp_path / "bad.fmu"
-    result = package("--parameters", params, "--out", out)
+    result = package("--parameters", params, "--output", out)
     assert result.returncode != 0
     assert message in result.stderr, result.stderr
     assert not out.exists()
@@ -121,10 +121,10 @@ def test_bad_parameter_files_are_refused_before_building(tmp_path, name, entry, 
 
 def test_a_file_with_several_modules_needs_one_chosen(tmp_path):
     params = parameter_file(tmp_path / "two.json", {"gain": (0.5, "A/%")}, extra_modules=["B"])
-    result = package("--parameters", params, "--out", tmp_path / "x.fmu")
+    result = package("--parameters", params, "--output", tmp_path / "x.fmu")
     assert result.returncode != 0 and "choose one with --module" in result.stderr
-    result = package("--parameters", params, "--module", "C", "--out", tmp_path / "x.fmu")
+    result = package("--parameters", params, "--module", "C", "--output", tmp_path / "x.fmu")
     assert result.returncode != 0 and "no module 'C'" in result.stderr
     (tmp_path / "broken.json").write_text("{ nope")
-    result = package("--parameters", tmp_path / "broken.json", "--out", tmp_path / "x.fmu")
+    result = package("--parameters", tmp_path / "broken.json", "--output", tmp_path / "x.fmu")
     assert result.returncode != 0 and "broken.json:1: not JSON" in result.stderr

@@ -274,7 +274,7 @@ def main(argv=None):
         bar.update()
         bar.set_postfix_str(STAGES[2])
         fmu = work / "AemIdentified.fmu"
-        run([sys.executable, checkout / "packaging" / "package.py", "--parameters", params, "--out", fmu])
+        run([sys.executable, checkout / "packaging" / "package.py", "--parameters", params, "--output", fmu])
         bar.update()
         bar.set_postfix_str(STAGES[3])
         check = run([args.tool, "validate", params, heldout])
