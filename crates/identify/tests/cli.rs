@@ -178,11 +178,11 @@ fn bad_input_is_an_error_naming_the_file() {
     let data = dir.join("data.csv");
     std::fs::write(&data, "t,I\n0,1\n").unwrap();
     fails(&["fit", s(&data)], "data.csv:1: no column `time`");
-    fails(
+    refused(
         &["fit", s(&data), "--column", "amps=I"],
         "unknown key `amps`",
     );
-    fails(&["fit", "--module", "noequals"], "ID=PATH");
+    refused(&["fit", "--module", "noequals"], "ID=PATH");
     let params = dir.join("p.json");
     std::fs::write(&params, r#"{"generator":"x","modules":[{"module":"m","parameters":{"gainz":{"value":1,"unit":"A/%","source":"identified"}}}]}"#).unwrap();
     fails(
@@ -405,7 +405,7 @@ fn a_wrong_or_contradicting_dialect_is_refused_with_a_hint() {
         ],
         "both the separator and the decimal mark",
     );
-    fails(&["fit", s(&path), "--decimal", "dot"], "--decimal `dot`");
+    refused(&["fit", s(&path), "--decimal", "dot"], "--decimal `dot`");
     // Given as point, decimal commas are text: every row is skipped, and the message says why.
     let out = tool(&["fit", s(&path), "--decimal", "point"]);
     let err = text(&out.stderr);
