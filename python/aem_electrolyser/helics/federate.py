@@ -23,6 +23,7 @@ import time
 import traceback
 from pathlib import Path
 
+from aem_electrolyser.cli import quiet_on_closed_stdout
 from aem_electrolyser.extras import needs
 
 with needs("helics", __name__):
@@ -35,6 +36,29 @@ from aem_electrolyser.helics.watchdog import Watchdog
 
 class FederationEnded(RuntimeError):
     """HELICS granted another time than requested: the broker ended the co-simulation."""
+
+
+def run_federate(main):
+    """Runs a federate's main as a command (cli.quiet_on_closed_stdout) and ends the process with
+    its status at once, past the interpreter's exit: HELICS's library, once the broker is gone,
+    can abort in its destructors at exit (std::bad_alloc thrown from its comms thread), which
+    would turn the federate's status 1 and its last line into a SIGABRT."""
+    try:
+        quiet_on_closed_stdout(main)
+        code = 0
+    except SystemExit as e:
+        code = e.code
+        if isinstance(code, str):
+            print(code, file=sys.stderr)
+            code = 1
+        elif code is None:
+            code = 0
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (BrokenPipeError, ValueError):
+            pass
+    os._exit(code)
 
 
 def report_stream():

@@ -19,10 +19,10 @@ Records <out>/grid_published.csv and <out>/grid_received.csv; log to stderr, rep
 
 import time
 
-from aem_electrolyser.cli import did_you_mean, quiet_on_closed_stdout, writable_folder
+from aem_electrolyser.cli import did_you_mean, writable_folder
 from aem_electrolyser.extras import needs
 from aem_electrolyser.helics import options
-from aem_electrolyser.helics.federate import Federate, report_stream
+from aem_electrolyser.helics.federate import Federate, report_stream, run_federate
 
 with needs("helics", __name__):
     import pandapower as pp
@@ -84,4 +84,4 @@ def main():
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    run_federate(main)

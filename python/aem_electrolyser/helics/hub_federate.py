@@ -25,10 +25,10 @@ import math
 
 from fmpy import read_model_description
 
-from aem_electrolyser.cli import add_fmu_option, one_of, positive, quiet_on_closed_stdout, resolve_fmu, writable_folder
+from aem_electrolyser.cli import add_fmu_option, one_of, positive, resolve_fmu, writable_folder
 from aem_electrolyser.examples.wind_hub import DISPATCHES, N_MODULES
 from aem_electrolyser.helics import options
-from aem_electrolyser.helics.federate import Federate, report_stream
+from aem_electrolyser.helics.federate import Federate, report_stream, run_federate
 from aem_electrolyser.hub.driver import HubFMU
 
 
@@ -89,4 +89,4 @@ def main():
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    run_federate(main)

@@ -14,9 +14,9 @@ Records <out>/wind_published.csv and <out>/wind_received.csv; its log goes to st
 report to stdout.
 """
 
-from aem_electrolyser.cli import non_negative, quiet_on_closed_stdout, writable_folder
+from aem_electrolyser.cli import non_negative, writable_folder
 from aem_electrolyser.helics import options
-from aem_electrolyser.helics.federate import Federate, report_stream
+from aem_electrolyser.helics.federate import Federate, report_stream, run_federate
 from aem_electrolyser.wind.farm import farm_power
 
 
@@ -44,4 +44,4 @@ def main():
 
 
 if __name__ == "__main__":
-    quiet_on_closed_stdout(main)
+    run_federate(main)
