@@ -8,6 +8,7 @@ from pathlib import Path
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
+from python_reference import PAPER  # bench/, the script's own folder (Table I from tests/data)
 from wind_reference import wind_reference  # bench/, the script's own folder
 from aem_electrolyser import fmu_path
 from aem_electrolyser.cli import quiet_on_closed_stdout
@@ -21,8 +22,10 @@ def main():
     md = read_model_description(str(FMU))
     vr = {v.name: v.valueReference for v in md.modelVariables}
     unzipped = extract(str(FMU))
-    i_rated = 0.534 * 100.0
-    reference = wind_reference(DAY, MODULES * (35.75 + 0.1529 * i_rated) * i_rated)
+    i_rated = PAPER["gain"] * PAPER["maxSetpoint"]
+    reference = wind_reference(
+        DAY, MODULES * (PAPER["voltageIntercept"] + PAPER["ohmicResistance"] * i_rated) * i_rated
+    )
     fmu = FMU2Slave(
         guid=md.guid, unzipDirectory=unzipped, modelIdentifier=md.coSimulation.modelIdentifier, instanceName="bench"
     )

@@ -6,21 +6,19 @@ This is what a user would write in a notebook; it is not exact between samples (
 only acts at the sample instants), which is one reason the FMU exists.
 """
 
+import json
+from pathlib import Path
+
 import numpy as np
 from scipy.signal import cont2discrete, tf2ss
 
-PAPER = dict(
-    gain=0.534,
-    tauZero=95.371,
-    tauPole1=1.995,
-    tauPole2=113.568,
-    rampUpLimit=0.22,
-    voltageIntercept=35.75,
-    ohmicResistance=0.1529,
-    h2Coefficient=9.6174,
-    minSetpoint=60.0,
-    maxSetpoint=100.0,
-)
+#: The paper's Table I and operating window, name -> value, from the tests' one copy.
+PAPER = {
+    row["name"]: row["value"]
+    for row in json.loads(
+        (Path(__file__).resolve().parent.parent / "tests" / "data" / "table_i.json").read_text(encoding="utf-8")
+    )
+}
 
 
 def simulate(setpoints, dt=1.0, p=PAPER):

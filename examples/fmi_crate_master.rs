@@ -1,7 +1,7 @@
 //! The setpoint schedule of tests/data/importer_schedule.csv through the `fmi` crate, an
 //! importer independent of this FMU's code: it unzips the .fmu, reads the model description
 //! with its own schema and calls the binary through libloading. Same schedule semantics and
-//! output as the C master (tests/c_master/master.c), so tests/python/test_importers.py can
+//! output as the C master (tests/c_master/master.c), so tests/python/fmu/test_importers.py can
 //! compare them number for number.
 //!
 //! ```sh

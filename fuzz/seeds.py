@@ -26,18 +26,10 @@ ROOT = Path(__file__).resolve().parent.parent
 CORPUS = ROOT / "fuzz" / "corpus"
 FMU = locate.fmu_path()
 IDENTIFY = locate.binary("aem-identify")
+#: The paper's Table I and operating window, name -> (value, unit), from the tests' one copy.
 TABLE_I = {
-    "gain": (0.534, "A/%"),
-    "tauZero": (95.371, "s"),
-    "tauPole1": (1.995, "s"),
-    "tauPole2": (113.568, "s"),
-    "rampUpLimit": (0.22, "A/s"),
-    "voltageIntercept": (35.75, "V"),
-    "ohmicResistance": (0.1529, "Ohm"),
-    "h2Coefficient": (9.6174, "Nl/(h.A)"),
-    "nominalCurrent": (53.35, "A"),
-    "minSetpoint": (60.0, "%"),
-    "maxSetpoint": (100.0, "%"),
+    row["name"]: (row["value"], row["unit"])
+    for row in json.loads((ROOT / "tests" / "data" / "table_i.json").read_text(encoding="utf-8"))
 }
 
 

@@ -2,7 +2,7 @@
 # Installs what building and testing need, and nothing when it is already there (the demo needs
 # far less: scripts/demo.sh installs its own; scripts/prerequisites.sh says what is supported):
 # - libclang (fmi-sys runs bindgen on the FMI 2.0 headers), from Debian's packages;
-# - gcc and valgrind (tests/python/test_importers.py compiles the C master in tests/c_master
+# - gcc and valgrind (tests/python/fmu/test_importers.py compiles the C master in tests/c_master
 #   and runs it under valgrind memcheck and AddressSanitizer), from Debian's packages;
 # - the cross toolchains of the packaged FMU's binaries (packaging/platforms.py): mingw-w64's
 #   gcc and Debian's rustc-web, cargo-web and rust-web-src (win64: the std built from source),

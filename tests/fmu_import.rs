@@ -1,29 +1,58 @@
 //! The packaged `.fmu` loaded by an independent importer, the `fmi` crate: it unzips the
 //! archive, parses the model description with its own schema and calls the binary through
-//! libloading. Expectations come from closed-form step responses.
+//! libloading. Expectations come from closed-form step responses with the paper's Table I as
+//! tests/data/table_i.json records it (read at test time), which the packaged model
+//! description must carry as its start values.
 //!
 //! Needs `target/fmu/AemElectrolyser.fmu` (python3 packaging/package.py; scripts/test.sh
 //! builds it before running the tests).
 
 use std::path::PathBuf;
+use std::sync::OnceLock;
 
 use fmi::fmi2::import::Fmi2Import;
 use fmi::fmi2::instance::{CoSimulation, Common};
+use fmi::schema::fmi2::ScalarVariableElement;
 use fmi::traits::{FmiImport, FmiStatus};
 
 use aem_electrolyser::model_description::{
     BooleanVariable, IntegerVariable, RealVariable, StringVariable, GUID, MODEL_IDENTIFIER,
 };
 
-/// Table I of the paper.
-const K: f64 = 0.534;
-const TAU_ZERO: f64 = 95.371;
-const TAU_POLE1: f64 = 1.995;
-const TAU_POLE2: f64 = 113.568;
-const RAMP: f64 = 0.22;
-const V0: f64 = 35.75;
-const R: f64 = 0.1529;
-const C_H2: f64 = 9.6174;
+/// One row of tests/data/table_i.json: a parameter as the model description names it, its
+/// value and unit.
+struct Row {
+    name: String,
+    value: f64,
+    unit: String,
+}
+
+/// The paper's Table I and operating window, read once from tests/data/table_i.json.
+fn table_i() -> &'static [Row] {
+    static ROWS: OnceLock<Vec<Row>> = OnceLock::new();
+    ROWS.get_or_init(|| {
+        let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/table_i.json");
+        let text =
+            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let rows: Vec<serde_json::Value> = serde_json::from_str(&text).expect("a JSON array");
+        rows.iter()
+            .map(|row| Row {
+                name: row["name"].as_str().expect("a name").to_string(),
+                value: row["value"].as_f64().expect("a value"),
+                unit: row["unit"].as_str().expect("a unit").to_string(),
+            })
+            .collect()
+    })
+}
+
+/// The paper's value of the parameter `name`.
+fn paper(name: &str) -> f64 {
+    table_i()
+        .iter()
+        .find(|row| row.name == name)
+        .unwrap_or_else(|| panic!("{name} is not in tests/data/table_i.json"))
+        .value
+}
 
 /// Agreement required between the FMU and a closed-form current [A].
 const CURRENT_TOLERANCE: f64 = 1e-9;
@@ -49,13 +78,16 @@ fn vr(var: RealVariable) -> u32 {
 /// Unlimited response t seconds after a step u0 → u1 from steady state [A]:
 /// I = K u1 + K (u0 − u1)(a e^(−t/τp1) + b e^(−t/τp2)), a = (τz − τp1)/(τp2 − τp1), b = 1 − a.
 fn unlimited(u0: f64, u1: f64, t: f64) -> f64 {
-    let a = (TAU_ZERO - TAU_POLE1) / (TAU_POLE2 - TAU_POLE1);
-    K * u1 + K * (u0 - u1) * (a * (-t / TAU_POLE1).exp() + (1.0 - a) * (-t / TAU_POLE2).exp())
+    let (k, tau_zero) = (paper("gain"), paper("tauZero"));
+    let (tau_pole1, tau_pole2) = (paper("tauPole1"), paper("tauPole2"));
+    let a = (tau_zero - tau_pole1) / (tau_pole2 - tau_pole1);
+    k * u1 + k * (u0 - u1) * (a * (-t / tau_pole1).exp() + (1.0 - a) * (-t / tau_pole2).exp())
 }
 
 /// First time the ramp K u0 + r t meets the unlimited response of a step up (bisection).
 fn ramp_meets_response(u0: f64, u1: f64) -> f64 {
-    let gap = |t: f64| unlimited(u0, u1, t) - (K * u0 + RAMP * t);
+    let (k, ramp) = (paper("gain"), paper("rampUpLimit"));
+    let gap = |t: f64| unlimited(u0, u1, t) - (k * u0 + ramp * t);
     let (mut lo, mut hi) = (1e-3, 1e4);
     assert!(gap(lo) > 0.0 && gap(hi) < 0.0);
     for _ in 0..200 {
@@ -67,6 +99,38 @@ fn ramp_meets_response(u0: f64, u1: f64) -> f64 {
         }
     }
     0.5 * (lo + hi)
+}
+
+/// The packaged FMU ships the paper's values: the model description the `fmi` crate reads
+/// from the archive has them as start values, and the code generated from the repository's
+/// model description (what the binary starts from) has them with their units.
+#[test]
+fn the_packaged_fmu_carries_table_i() {
+    let import = import();
+    let variables = &import.model_description().model_variables.variables;
+    for row in table_i() {
+        let sv = variables
+            .iter()
+            .find(|sv| sv.name == row.name)
+            .unwrap_or_else(|| panic!("{} is not in the packaged model description", row.name));
+        match &sv.elem {
+            ScalarVariableElement::Real(real) => {
+                assert_eq!(real.start, Some(row.value), "{}: start", row.name)
+            }
+            other => panic!("{}: a Real, not {other:?}", row.name),
+        }
+        let generated = RealVariable::ALL
+            .into_iter()
+            .find(|v| v.name() == row.name)
+            .unwrap_or_else(|| panic!("{} is not a generated Real variable", row.name));
+        assert_eq!(
+            generated.start(),
+            Some(row.value),
+            "{}: generated start",
+            row.name
+        );
+        assert_eq!(generated.unit(), row.unit, "{}: unit", row.name);
+    }
 }
 
 #[test]
@@ -129,16 +193,22 @@ fn step_schedule_follows_the_closed_form_responses() {
     ];
     let out_vrs: Vec<u32> = outputs.iter().map(|v| vr(*v)).collect();
     let mut values = [0.0; 4];
+    let (k, ramp) = (paper("gain"), paper("rampUpLimit"));
+    let (v0, r, c_h2) = (
+        paper("voltageIntercept"),
+        paper("ohmicResistance"),
+        paper("h2Coefficient"),
+    );
     let read = |fmu: &mut fmi::fmi2::instance::InstanceCS, values: &mut [f64; 4]| {
         fmu.get_real(&out_vrs, values).expect("getReal");
         // Polarisation curve, power and Faraday from the current, exactly.
         let i = values[0];
-        assert!((values[1] - (V0 + R * i)).abs() < 1e-12);
-        assert!((values[2] - (V0 + R * i) * i).abs() < 1e-9);
-        assert!((values[3] - C_H2 * i).abs() < 1e-9);
+        assert!((values[1] - (v0 + r * i)).abs() < 1e-12);
+        assert!((values[2] - (v0 + r * i) * i).abs() < 1e-9);
+        assert!((values[3] - c_h2 * i).abs() < 1e-9);
         i
     };
-    assert!((read(&mut fmu, &mut values) - K * 90.0).abs() < CURRENT_TOLERANCE);
+    assert!((read(&mut fmu, &mut values) - k * 90.0).abs() < CURRENT_TOLERANCE);
 
     // Step down 90 → 65 %: two exponentials, no rate limit; 1 s steps for 600 s.
     let mut t = 0.0;
@@ -160,8 +230,8 @@ fn step_schedule_follows_the_closed_form_responses() {
         t += 0.5;
     }
     let settled = read(&mut fmu, &mut values);
-    let residual = unlimited(90.0, 65.0, 3600.0) - K * 65.0;
-    assert!((settled - K * 65.0 - residual).abs() < CURRENT_TOLERANCE);
+    let residual = unlimited(90.0, 65.0, 3600.0) - k * 65.0;
+    assert!((settled - k * 65.0 - residual).abs() < CURRENT_TOLERANCE);
 
     // Step up 65 → 100 % from (almost) steady state: ramp at r, then the response.
     // Starting exactly from steady state is the closed form's assumption; the residual of the
@@ -176,7 +246,7 @@ fn step_schedule_follows_the_closed_form_responses() {
         let i = read(&mut fmu, &mut values);
         let s = n as f64;
         let want = if s <= meet {
-            start + RAMP * s
+            start + ramp * s
         } else {
             unlimited(65.0, 100.0, s)
         };

@@ -2,6 +2,7 @@
 and the paper's parameters with the closed-form responses the tests compare against."""
 
 import itertools
+import json
 import math
 import os
 import shutil
@@ -24,20 +25,13 @@ try:  # the installed package's FMU (the checkout's build, editable), or AEM_FMU
 except aem_electrolyser.NotBuilt as e:
     FMU_PATH, FMU_MISSING = None, str(e)
 
-#: Table I of the paper: the FMU's parameter start values.
-PAPER = dict(
-    gain=0.534,
-    tauZero=95.371,
-    tauPole1=1.995,
-    tauPole2=113.568,
-    rampUpLimit=0.22,
-    voltageIntercept=35.75,
-    ohmicResistance=0.1529,
-    h2Coefficient=9.6174,
-    nominalCurrent=53.35,
-    minSetpoint=60.0,
-    maxSetpoint=100.0,
-)
+#: The paper's Table I and operating window, as the FMU names its parameters: one row (name,
+#: value, unit, source) each. tests/data/table_i.json is the one copy the tests, fuzz/seeds.py
+#: and bench/python_reference.py read; fmu/test_table_i.py checks that the FMU carries it.
+TABLE_I_FILE = ROOT / "tests" / "data" / "table_i.json"
+TABLE_I = json.loads(TABLE_I_FILE.read_text(encoding="utf-8"))
+#: Table I by name: the FMU's parameter start values.
+PAPER = {row["name"]: row["value"] for row in TABLE_I}
 
 STATUS_LABELS = ["OK", "WARNING", "DISCARD", "ERROR", "FATAL", "PENDING"]
 

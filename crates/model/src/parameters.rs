@@ -65,7 +65,7 @@ impl std::error::Error for ParameterError {}
 
 impl Default for Parameters {
     /// The paper's Table I and its 60…100 % operating window (the FMU's model description
-    /// carries the same start values; its tests check that they agree).
+    /// carries the same start values; tests check both against tests/data/table_i.json).
     fn default() -> Self {
         Parameters {
             gain: 0.534,
@@ -294,6 +294,36 @@ mod tests {
         let p = Parameters::default();
         assert_eq!(p.validate(), Ok(()));
         assert!((p.steady_current(100.0) - 53.4).abs() < 1e-12);
+    }
+
+    /// The defaults are the paper's values as tests/data/table_i.json records them (the one
+    /// copy of Table I the tests read; the model keeps its literals, the file checks them).
+    #[test]
+    fn defaults_are_the_papers_table_i() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/table_i.json");
+        let text =
+            std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let rows: Vec<serde_json::Value> = serde_json::from_str(&text).expect("a JSON array");
+        let defaults = Parameters::default();
+        let mut named = Vec::new();
+        for row in &rows {
+            let name = row["name"].as_str().expect("a name");
+            let parameter = ModuleParameter::from_name(name)
+                .unwrap_or_else(|| panic!("{name} is not a module parameter"));
+            assert_eq!(
+                defaults.get(parameter),
+                row["value"].as_f64().expect("a value"),
+                "{name}"
+            );
+            assert_eq!(row["unit"].as_str(), Some(parameter.unit()), "{name}");
+            named.push(parameter);
+        }
+        assert_eq!(
+            named,
+            ModuleParameter::ALL,
+            "every parameter once, in order"
+        );
     }
 
     #[test]

@@ -9,15 +9,13 @@ argument and output-path errors are run here.
 """
 
 import importlib.util
-import os
-import subprocess
-import sys
 import tomllib
 import xml.etree.ElementTree as ET
 import zipfile
 
 import pytest
 
+from commands import assert_quiet, run
 from conftest import ROOT
 
 VALIDATION_HEADER = (
@@ -46,34 +44,6 @@ COMMANDS = [
         "scripts/shrink_png.py",
     )
 ]
-
-
-def run(args, stdout_closed=True, timeout=120, env=None, buffered=False):
-    """Runs a command of the repository. With stdout_closed its stdout is a pipe whose reading
-    end is closed before the command starts (as `| head` leaves it once it has its lines);
-    closing it before the start rather than after makes the test independent of timing.
-    Unbuffered (the default here), every print meets the closed pipe at once, so a print before
-    the result files are written shows as missing files; buffered, the pipe is met at the end."""
-    env = {**os.environ, **(env or {}), "PYTHONUNBUFFERED": "" if buffered else "1"}
-    read, write = os.pipe()
-    os.close(read)
-    try:
-        return subprocess.run(
-            [sys.executable, *map(str, args)],
-            cwd=ROOT,
-            stdout=write if stdout_closed else subprocess.DEVNULL,
-            stderr=subprocess.PIPE,
-            text=True,
-            timeout=timeout,
-            env=env,
-        )
-    finally:
-        os.close(write)
-
-
-def assert_quiet(done):
-    assert done.returncode == 0, done.stderr
-    assert "Traceback" not in done.stderr and "BrokenPipeError" not in done.stderr, done.stderr
 
 
 def validation_trace(path):

@@ -254,7 +254,7 @@ def test_64_instances_in_one_ecos_simulation_each_as_if_alone(ecos, fmu_path, in
 
 def test_the_schedules_first_step_follows_the_closed_form(reference):
     """The runs above are checked against fmpy; fmpy's against the paper's closed form (the
-    falling step 90 -> 65 % at 10 s, as tests/python/test_importers.py does over the whole run)."""
+    falling step 90 -> 65 % at 10 s, as tests/python/fmu/test_importers.py does over the whole run)."""
     for n in (21, 40, 200, 1000):  # rows at t = 10.5, 20, 100, 500 s
         t = n * STEP
         assert reference[n][0] == pytest.approx(unlimited_step_response(90.0, 65.0, t - 10.0), rel=0, abs=1e-9)

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from test_closed_stdout import assert_quiet, run as run_command
+from commands import assert_quiet, run as run_command
 
 import pandapower as pp
 import pandapower.networks as pn

@@ -5,15 +5,13 @@ filter), with tolerances of a few standard errors of the estimate."""
 
 import time
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
 from scipy import stats
 from scipy.special import gamma, ndtri
 
-ROOT = Path(__file__).resolve().parents[2]
-from aem_electrolyser.wind.year import (  # noqa: E402
+from aem_electrolyser.wind.year import (
     DAY,
     FARM_RATING,
     HOUR,
