@@ -14,7 +14,7 @@ identification tool and aem-study's native master for users of each platform:
         -> target/dist/<platform>/aem-identify[.exe], aem-run[.exe]
     .venv/bin/python packaging/platforms.py test [-- CARGO TEST ARGUMENTS]
         -> the workspace's Rust tests, built as the linux64 release is (cargo zigbuild test
-           --profile bench; see Cargo.toml's [profile.bench.package.*]), reusing its crates
+           --release), reusing its crates
     .venv/bin/python packaging/platforms.py all [--platforms win64]
         -> the whole workspace in one build per platform (the FMU's library, which
            packaging/package.py --no-build then zips, and both commands into target/dist/)
@@ -158,13 +158,16 @@ def build(platform, cargo_args, extra_env=None):
 
 
 def test(cargo_test_args):
-    """Runs the workspace's tests built for linux64 by cargo zigbuild with the bench profile: the
-    release's target folder and dependencies. Returns cargo's exit status."""
+    """Runs the workspace's tests built for linux64 by cargo zigbuild as the release is (its
+    profile, target folder and compiled crates: only the test targets are compiled anew), so the
+    tests run the code that ships. Debug assertions and overflow checks are the fast lane's
+    (scripts/check.sh: the unit tests in the dev profile) and the fuzzers'. Returns cargo's exit
+    status."""
     build_argv, env = command(LINUX64, ["--workspace", "--locked"])
     assert build_argv[:3] == ["cargo", "zigbuild", "--release"], build_argv
     # `cargo zigbuild` knows no test; the binary itself does (cargo-zigbuild test).
     zigbuild = shutil.which("cargo-zigbuild", path=env["PATH"])
-    argv = [zigbuild, "test", "--profile", "bench", *build_argv[3:], *cargo_test_args]
+    argv = [zigbuild, "test", "--release", *build_argv[3:], *cargo_test_args]
     env["AEM_MODEL_DESCRIPTION"] = ""  # as the release's build: its build script's input unchanged
     return subprocess.run(argv, cwd=ROOT, env=env).returncode
 

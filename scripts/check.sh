@@ -19,8 +19,8 @@ phase cargo fmt --all --check
 phase .venv/bin/ruff check --quiet python tests bench packaging fuzz scripts
 phase .venv/bin/ruff format --check --quiet python tests bench packaging fuzz scripts
 phase cargo clippy --quiet --workspace --all-targets --release -- -D warnings
-phase cargo test --quiet --release -p aem-model -p aem-identify --lib
+phase cargo test --quiet -p aem-model -p aem-identify --lib   # debug assertions and overflow checks on
 phase .venv/bin/python packaging/package.py --platforms linux64 --native
-phase .venv/bin/python -m pytest tests/python -q -n 2 -p no:cacheprovider \
+phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup -p no:cacheprovider \
   -m "not slow and not wine and not cosim and not cluster and not serial"
 echo "check.sh: passed in $SECONDS s" >&2

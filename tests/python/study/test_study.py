@@ -45,7 +45,7 @@ sequential = { dispatch = "sequential", belowMinimum = "standby" }
 """
 
 
-@pytest.fixture(scope="module", autouse=True)
+@pytest.fixture(autouse=True)
 def runner_built(fmu_path):
     if not RUNNER.is_file():
         pytest.fail(f"{RUNNER} not found: cargo build --release --bins")
