@@ -25,7 +25,7 @@ phase .venv/bin/python packaging/release.py
 phase .venv/bin/python packaging/platforms.py test
 phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup -m "not serial" --durations=15
 phase .venv/bin/python -m pytest tests/python -q -m serial --durations=10
-# 15 s a target here: a check that every harness finds nothing in reach; the long runs are in
+# 5 s a target here: every harness builds and finds nothing in reach; the long runs are in
 # docs/robustness.md (SECONDS_PER_TARGET=3600 or RUNS=10000000 bash scripts/fuzz.sh).
-SECONDS_PER_TARGET="${SECONDS_PER_TARGET:-15}" phase bash scripts/fuzz.sh
+SECONDS_PER_TARGET="${SECONDS_PER_TARGET:-5}" phase bash scripts/fuzz.sh
 echo "test.sh: every test passed in $SECONDS s" >&2
