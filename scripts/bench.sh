@@ -10,16 +10,16 @@ cargo build --release --locked -p aem-run
 echo "== Rust (cargo bench --bench model_step) on $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs), $(nproc) cores"
 cargo bench --locked --profile release --bench model_step -- --json target/bench/rust.json
 echo "== fmpy and Python/SciPy"
-.venv/bin/python bench/fmpy_bench.py --rust target/bench/rust.json
+.venv/bin/python benches/fmpy_bench.py --rust target/bench/rust.json
 echo "== hub of 25 000 modules (cargo bench --bench hub; then the equal hub through fmpy)"
-cargo bench --locked --profile release --bench hub | tee target/bench/hub.txt
-.venv/bin/python bench/hub_fmpy.py
+cargo bench --locked --profile release --bench hub | tee target/benches/hub.txt
+.venv/bin/python benches/hub_fmpy.py
 echo "== the NREL electrolyzer package (PyPI) as peer, against the equal hub through fmpy"
-bash bench/nrel_bench.sh
+bash benches/nrel_bench.sh
 echo "== aem-identify against its Python/SciPy peer"
-bash bench/identify_bench.sh
+bash benches/identify_bench.sh
 echo "== prequalification of the 25 000-module hub: every product, plain and compensated, with bisection"
 .venv/bin/aem-prequalify --modules 25000 --dispatch equal --baseline 80 --compensation both \
   --no-plots --out target/bench/prequalification | tail -1
 echo "== aem-study: a year at 1 s of the 60 MW hub per scenario, scenarios per hour serial and on a LocalCluster, the NREL peer"
-.venv/bin/python bench/study_bench.py
+.venv/bin/python benches/study_bench.py

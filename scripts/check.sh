@@ -16,8 +16,8 @@ phase() {
   echo "check.sh: $* took $((SECONDS - started)) s" >&2
 }
 phase cargo fmt --all --check
-phase .venv/bin/ruff check --quiet python tests bench packaging fuzz scripts
-phase .venv/bin/ruff format --check --quiet python tests bench packaging fuzz scripts
+phase .venv/bin/ruff check --quiet python tests benches packaging fuzz scripts
+phase .venv/bin/ruff format --check --quiet python tests benches packaging fuzz scripts
 phase cargo clippy --quiet --workspace --all-targets --release -- -D warnings
 phase cargo test --quiet -p aem-model -p aem-identify --lib   # debug assertions and overflow checks on
 phase .venv/bin/python packaging/package.py --platforms linux64 --native

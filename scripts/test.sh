@@ -19,7 +19,7 @@ phase() {
   echo "test.sh: $* took $((SECONDS - started)) s" >&2
 }
 phase bash scripts/setup.sh
-phase .venv/bin/ruff check --quiet python tests bench packaging fuzz scripts
+phase .venv/bin/ruff check --quiet python tests benches packaging fuzz scripts
 phase cargo fmt --check
 phase .venv/bin/python packaging/release.py
 phase .venv/bin/python packaging/platforms.py test

@@ -27,7 +27,7 @@ except aem_electrolyser.NotBuilt as e:
 
 #: The paper's Table I and operating window, as the FMU names its parameters: one row (name,
 #: value, unit, source) each. tests/data/table_i.json is the one copy the tests, fuzz/seeds.py
-#: and bench/python_reference.py read; fmu/test_table_i.py checks that the FMU carries it.
+#: and benches/python_reference.py read; fmu/test_table_i.py checks that the FMU carries it.
 TABLE_I_FILE = ROOT / "tests" / "data" / "table_i.json"
 TABLE_I = json.loads(TABLE_I_FILE.read_text(encoding="utf-8"))
 #: Table I by name: the FMU's parameter start values.

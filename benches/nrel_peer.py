@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
 """Peer benchmark: NREL's `electrolyzer` package (PyPI 0.2.1, "a controls-oriented engineering
 electrolyzer model") simulating one day at 1 s of a 60-stack, 60 MW PEM plant that follows the
-same wind-like power reference as bench/hub_fmpy.py (issue 4). Runs in .venv-nrel (made by
-bench/nrel_bench.sh), not in the project's .venv.
+same wind-like power reference as benches/hub_fmpy.py (issue 4). Runs in .venv-nrel (made by
+benches/nrel_bench.sh), not in the project's .venv.
 
-    .venv-nrel/bin/python bench/nrel_peer.py [--hours H] [--control TYPE]
+    .venv-nrel/bin/python benches/nrel_peer.py [--hours H] [--control TYPE]
 
 What the peer models, per stack and step: a PEM cell polarisation (Nernst open-circuit voltage,
 Butler-Volmer activation, Nafion ohmic overpotential) inverted by a fitted quadratic
@@ -23,7 +23,7 @@ Settings (and why):
   can run them all above turndown), the nearest to our `equal` hub dispatch; --control picks
   another of the package's controllers (e.g. BaselineDeg, the example's).
 - initialize = True at the reference's first value, as our hub starts in steady state.
-- reference: bench/wind_reference.py, as for bench/hub_fmpy.py (same seed and walk), scaled to 60 MW.
+- reference: benches/wind_reference.py, as for benches/hub_fmpy.py (same seed and walk), scaled to 60 MW.
 - horizon: the full day by default (20 min or more on the 2-core dev machine); --hours H < 24
   extrapolates, which gives only a lower bound (below).
 - timed: the Supervisor.run_control loop (the loop inside the package's run_electrolyzer),
@@ -47,7 +47,7 @@ from electrolyzer.simulation.supervisor import Supervisor
 from electrolyzer.tools.design.optimization import calc_rated_system
 from electrolyzer.tools.validation import load_modeling_yaml
 
-from wind_reference import wind_reference  # bench/, the script's own folder
+from wind_reference import wind_reference  # benches/, the script's own folder
 
 DAY, N_STACKS, PLANT_MW = 86_400, 60, 60.0
 
@@ -98,8 +98,8 @@ def main():
     parser.add_argument(
         "--reference",
         type=Path,
-        help="the plant's power reference [W] at 1 s, little-endian f64 (bench/study_bench.py "
-        "gives its wind year); default bench/wind_reference.py's day",
+        help="the plant's power reference [W] at 1 s, little-endian f64 (benches/study_bench.py "
+        "gives its wind year); default benches/wind_reference.py's day",
     )
     args = parser.parse_args()
     n = int(round(args.hours * 3600))

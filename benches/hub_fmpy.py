@@ -8,8 +8,8 @@ from pathlib import Path
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from python_reference import PAPER  # bench/, the script's own folder (Table I from tests/data)
-from wind_reference import wind_reference  # bench/, the script's own folder
+from python_reference import PAPER  # benches/, the script's own folder (Table I from tests/data)
+from wind_reference import wind_reference  # benches/, the script's own folder
 from aem_electrolyser import fmu_path
 from aem_electrolyser.cli import quiet_on_closed_stdout
 

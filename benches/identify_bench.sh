@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Benchmark of aem-identify against the Python/SciPy peer (bench/identify_reference.py) on the
+# Benchmark of aem-identify against the Python/SciPy peer (benches/identify_reference.py) on the
 # same files, in the same run.
 #
 # Data: `aem-identify synthesize` writes ten daily CSV files at 1 Hz of a known module, each
@@ -38,12 +38,12 @@ sed 's/^timing: /  /' target/bench/identify/rust_best.txt
 
 best_py=""
 for i in $(seq "$RUNS"); do
-  "$PY" bench/identify_reference.py "$DATA" --json > target/bench/identify/python.txt
+  "$PY" benches/identify_reference.py "$DATA" --json > target/bench/identify/python.txt
   total=$(tail -1 target/bench/identify/python.txt | "$PY" -c 'import json,sys; print(1000*json.load(sys.stdin)["total"])')
   if [ -z "$best_py" ] || awk "BEGIN {exit !($total < $best_py)}"; then
     best_py=$total; cp target/bench/identify/python.txt target/bench/identify/python_best.txt
   fi
 done
-echo "== Python/SciPy bench/identify_reference.py (best of $RUNS)"
+echo "== Python/SciPy benches/identify_reference.py (best of $RUNS)"
 grep '^python: ' target/bench/identify/python_best.txt | sed 's/^python: /  /'
 awk -v r="$best_rust" -v p="$best_py" 'BEGIN {printf "== end to end: Rust %.1f ms, Python %.1f ms, ratio %.1fx (target: Rust <= 500 ms)\n", r, p, p / r}'

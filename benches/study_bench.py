@@ -6,15 +6,15 @@
    scenario, of which aem-run (the native master driving the packaged FMU) and the wind year's
    generation; against the FMU's own cost through its C interface (`cargo bench --bench hub`,
    sequential, C ABI, s/day x 365; scripts/bench.sh runs it first and this script reads
-   target/bench/hub.txt), and aem-run on that benchmark's own day for a like-for-like ratio.
+   target/benches/hub.txt), and aem-run on that benchmark's own day for a like-for-like ratio.
 2. Scenarios per hour, serial against a LocalCluster of one worker process per core, on a
    study of --scenarios seeds x --days days of the same hub (the same scenarios both times:
    the store is emptied between the runs), and the speed-up.
-3. The NREL `electrolyzer` peer (bench/nrel_peer.py in .venv-nrel, made by bench/nrel_bench.sh)
+3. The NREL `electrolyzer` peer (benches/nrel_peer.py in .venv-nrel, made by benches/nrel_bench.sh)
    on the first --nrel-hours of the same wind year, extrapolated to the year: a lower bound,
    as its per-step cost grows with simulated time.
 
-    .venv/bin/python bench/study_bench.py [--days-per-scenario 60] [--scenarios 4] [--nrel-hours 1]
+    .venv/bin/python benches/study_bench.py [--days-per-scenario 60] [--scenarios 4] [--nrel-hours 1]
 """
 
 import argparse
@@ -33,7 +33,7 @@ from aem_electrolyser import locate
 from aem_electrolyser.study import engine
 from aem_electrolyser.study.definition import Study
 from aem_electrolyser.wind.year import farm_power_year
-from wind_reference import wind_reference  # bench/, the script's own folder
+from wind_reference import wind_reference  # benches/, the script's own folder
 
 OUT = ROOT / "target" / "bench" / "study"
 HUB = """[parameters]
@@ -123,7 +123,7 @@ def main():
     per_day = c_interface_day()
     if per_day is None:
         print(
-            "  (no target/bench/hub.txt from cargo bench --bench hub: run scripts/bench.sh for the C-interface ratio)"
+            "  (no target/benches/hub.txt from cargo bench --bench hub: run scripts/bench.sh for the C-interface ratio)"
         )
     else:
         bench_day = wind_reference(86400, 60e6, seed=42)
@@ -161,7 +161,7 @@ def main():
 
     peer = ROOT / ".venv-nrel" / "bin" / "python"
     if not peer.is_file():
-        print("  (no .venv-nrel: bash bench/nrel_bench.sh makes it; the NREL peer is skipped)")
+        print("  (no .venv-nrel: bash benches/nrel_bench.sh makes it; the NREL peer is skipped)")
         return
     path = OUT / "wind_year.f64"
     wind[: int(args.nrel_hours * 3600)].astype("<f8").tofile(path)

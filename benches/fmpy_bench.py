@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
 """Benchmark through fmpy, beside the Rust figures and the Python/SciPy peer (one run).
 
-    python bench/fmpy_bench.py [--rust target/bench/rust.json] [--fmu target/fmu/AemElectrolyser.fmu]
+    python benches/fmpy_bench.py [--rust target/bench/rust.json] [--fmu target/fmu/AemElectrolyser.fmu]
 
 Prints: µs per fmi2SetReal + fmi2DoStep + fmi2GetReal(4 outputs) through fmpy for one day at
 1 s, the FMU's own share of that call (ns per step of the same three calls made in process
 by the Rust benchmark, read from --rust), and the wall time of the same day simulated by a
-straightforward Python/SciPy implementation (bench/python_reference.py), with the speed ratio
+straightforward Python/SciPy implementation (benches/python_reference.py), with the speed ratio
 to the Rust model and to the FMU through fmpy.
 """
 
@@ -21,7 +21,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
 ROOT = Path(__file__).resolve().parent.parent
-import python_reference  # bench/, the script's own folder
+import python_reference  # benches/, the script's own folder
 from aem_electrolyser import fmu_path
 from aem_electrolyser.cli import quiet_on_closed_stdout
 
@@ -29,7 +29,7 @@ DAY = 86_400
 
 
 def wind_like_setpoints(n, seed=42):
-    """Mean-reverting random walk at 1 s, 45…105 % (same process as bench/model_step.rs)."""
+    """Mean-reverting random walk at 1 s, 45…105 % (same process as benches/model_step.rs)."""
     rng = np.random.default_rng(seed)
     steps = 3.0 * (rng.random(n) - 0.5)
     out = np.empty(n)

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """A straightforward Python/NumPy/SciPy implementation of aem-identify's pipeline, the peer of
-the Rust tool in bench/identify_bench.sh (same files, same run).
+the Rust tool in benches/identify_bench.sh (same files, same run).
 
-    python bench/identify_reference.py DIR [--json]
+    python benches/identify_reference.py DIR [--json]
 
 Same steps and rules as the Rust tool: CSV reading with bad-row accounting and gap splitting,
 running segments, steps during steady running (row n's setpoint acts from row n-1 on; 60 s

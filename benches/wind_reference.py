@@ -1,5 +1,5 @@
-"""The wind-like power reference shared by the hub benchmarks (bench/hub_fmpy.py and the NREL
-peer bench/nrel_peer.py): a seeded mean-reverting random walk at 1 s between 5 % and 100 % of
+"""The wind-like power reference shared by the hub benchmarks (benches/hub_fmpy.py and the NREL
+peer benches/nrel_peer.py): a seeded mean-reverting random walk at 1 s between 5 % and 100 % of
 the rated power. Needs numpy only, so both virtual environments can import it."""
 
 import numpy as np
