@@ -220,19 +220,19 @@ def wine(tmp_path_factory):
     return run_windows
 
 
-def pytest_collection_modifyitems(items):
+def pytest_itemcollected(item):
     """Under pytest-xdist's loadgroup distribution (scripts/test.sh, scripts/check.sh), the tests
     that use a module-scoped fixture of their module (an hour of co-simulation, a built site, an
     installed wheel) go to one worker together, so the fixture is made once; every other test is
-    given to whichever worker is free."""
-    for item in items:
-        info = getattr(item, "_fixtureinfo", None)
-        if info is None:
-            continue
-        shared = any(
-            d.scope == "module" and d.baseid and item.nodeid.startswith(d.baseid)
-            for defs in info.name2fixturedefs.values()
-            for d in defs
-        )
-        if shared:
-            item.add_marker(pytest.mark.xdist_group(item.path.stem))
+    given to whichever worker is free. (Marked as each test is collected: xdist reads the groups
+    in its own pytest_collection_modifyitems.)"""
+    info = getattr(item, "_fixtureinfo", None)
+    if info is None:
+        return
+    shared = any(
+        d.scope == "module" and d.baseid and item.nodeid.startswith(d.baseid)
+        for defs in info.name2fixturedefs.values()
+        for d in defs
+    )
+    if shared:
+        item.add_marker(pytest.mark.xdist_group(item.path.stem))
