@@ -64,7 +64,7 @@ from pathlib import Path
 
 import numpy as np
 
-from aem_electrolyser.examples.grid_cosim import N_MODULES, power_system as grid_power_system
+from aem_electrolyser.examples.grid_cosim import N_MODULES, whole_tops_steps, power_system as grid_power_system
 from aem_electrolyser.hub.driver import HubFMU
 from aem_electrolyser.examples.wind_hub import module_rating
 from aem_electrolyser.extras import require
@@ -453,7 +453,7 @@ def main(argv=None):
         )
     if args.load > 1:
         parser.error(f"--load: {args.load:g} is above 1 (the hub's rated power)")
-    if abs(args.exchange / 5e-3 - round(args.exchange / 5e-3)) > 1e-9:
+    if not whole_tops_steps(args.exchange):
         parser.error(f"--exchange: {args.exchange:g} s is not a multiple of TOPS's 5 ms step")
     require("grid", parser.prog)
     args.fmu = cli.resolve_fmu(parser, args)

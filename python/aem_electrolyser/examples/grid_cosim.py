@@ -35,6 +35,12 @@ from aem_electrolyser import cli
 
 N_MODULES = 25_000
 BUS, BUS_KV = "B12", 230.0
+TOPS_STEP = 5e-3  # TOPS's modified Euler step [s]; the FMU exchanges at whole multiples of it
+
+
+def whole_tops_steps(seconds):
+    """Whether `seconds` is a whole number of TOPS steps (to 1e-9 of a step)."""
+    return abs(seconds / TOPS_STEP - round(seconds / TOPS_STEP)) <= 1e-9
 
 
 def power_system(p_wind_mw, p_hub_mw):
@@ -224,7 +230,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.gust_start >= args.duration:
         parser.error(f"--gust-start: {args.gust_start:g} s is not before the end (--duration {args.duration:g} s)")
-    if abs(args.exchange / 5e-3 - round(args.exchange / 5e-3)) > 1e-9 or args.exchange > args.duration:
+    if not whole_tops_steps(args.exchange) or args.exchange > args.duration:
         parser.error(f"--exchange: {args.exchange:g} s is not a multiple of TOPS's 5 ms step within --duration")
     require("grid", parser.prog)
     args.fmu = cli.resolve_fmu(parser, args)
