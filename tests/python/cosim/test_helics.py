@@ -48,10 +48,10 @@ from aem_electrolyser.helics.records import read
 from aem_electrolyser.hub import HubFMU
 from aem_electrolyser.wind.farm import farm_power
 
-# HELICS federations (the co-simulation lane). Each federation has its own free ports and broker
-# key, so they run beside the other tests; the bounds on how long processes may take to end are
-# generous enough for a machine whose cores are all busy.
-pytestmark = [pytest.mark.cosim]
+# HELICS federations (the co-simulation lane), run alone (serial): beside the other tests a hang
+# test's two 5 s timers (the grid's stall report and the hub's own watchdog) can both fire, and
+# the hub's last line then carries both causes.
+pytestmark = [pytest.mark.cosim, pytest.mark.serial]
 
 #: The runner file ships with the package, beside the federates.
 PACKAGE = Path(aem_electrolyser.helics.__file__).parent
