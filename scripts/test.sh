@@ -23,8 +23,7 @@ phase .venv/bin/ruff check --quiet python tests benches packaging fuzz scripts
 phase cargo fmt --check
 phase .venv/bin/python packaging/release.py
 phase .venv/bin/python packaging/platforms.py test
-phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup -m "not serial" --durations=15
-phase .venv/bin/python -m pytest tests/python -q -m serial --durations=10
+phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup --durations=20
 # 5 s a target here: every harness builds and finds nothing in reach; the long runs are in
 # docs/robustness.md (SECONDS_PER_TARGET=3600 or RUNS=10000000 bash scripts/fuzz.sh).
 SECONDS_PER_TARGET="${SECONDS_PER_TARGET:-5}" phase bash scripts/fuzz.sh

@@ -20,16 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
+from aem_electrolyser.hub.dispatch import DISPATCHES, N_MODULES
 from aem_electrolyser.hub.driver import HubFMU
 from aem_electrolyser.wind.farm import farm_power
 from aem_electrolyser.extras import require
 from aem_electrolyser import cli
 
-N_MODULES = 25_000  # the paper's hub: 25 000 modules, about 60 MW
-DISPATCHES = {
-    "equal": dict(dispatch=1, belowMinimum=0),
-    "sequential": dict(dispatch=2, belowMinimum=1),
-}
 OUTPUTS = [
     "hubPower",
     "hubEnergy",

@@ -26,7 +26,7 @@ import math
 from fmpy import read_model_description
 
 from aem_electrolyser.cli import add_fmu_option, one_of, positive, resolve_fmu, writable_folder
-from aem_electrolyser.examples.wind_hub import DISPATCHES, N_MODULES
+from aem_electrolyser.hub.dispatch import DISPATCHES, N_MODULES
 from aem_electrolyser.helics import options
 from aem_electrolyser.helics.federate import Federate, report_stream, run_federate
 from aem_electrolyser.hub.driver import HubFMU

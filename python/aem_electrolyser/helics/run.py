@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from aem_electrolyser import cli
-from aem_electrolyser.examples.wind_hub import DISPATCHES, N_MODULES
+from aem_electrolyser.hub.dispatch import DISPATCHES, N_MODULES
 from aem_electrolyser.extras import require
 from aem_electrolyser.helics.records import read
 

@@ -9,11 +9,13 @@ in a HELICS call); the watchdog acts when
 * the federate has run longer than its wall-clock limit [s], or
 * the federation has not started within the join timeout [s] (HELICS waits for a federate that
   never comes forever), or
-* one phase has lasted longer than the stall timeout [s]: a step of its own that does not end is
-  reported as such; a wait is diagnosed first by asking every other federate for its time with
+* a step of its own has lasted longer than the stall timeout [s]: reported as such; or
+* a wait in HELICS has lasted WAIT_FACTOR times the stall timeout (later than a step, so that a
+  federate stuck in its own step reports that first, even on a loaded machine where the others'
+  probes are slow to be answered): diagnosed by asking every other federate for its time with
   asynchronous HELICS queries (a federate whose process is gone does not answer within
   PROBE_TIMEOUT): a silent federate is named; if all answer, the wait is reported after twice
-  the stall timeout (the stuck federate's own watchdog normally reports first).
+  the stall timeout.
 
 Acting means a HELICS global error with the diagnosis (every federate's pending call then raises
 it), and, if the main thread has not ended GRACE seconds later, ending the process (status 3).
@@ -34,6 +36,7 @@ PROBE_TIMEOUT = 2.0  # s a living federate's core takes at most to answer a quer
 GRACE = 10.0  # s the main thread gets to end after the global error
 POLL = 0.2  # s
 EXIT_STATUS = 3
+WAIT_FACTOR = 1.5  # a wait is probed after this many stall timeouts, a step fires after one
 
 
 class Watchdog:
@@ -79,10 +82,12 @@ class Watchdog:
                         f"joined: {', '.join(joined) or 'unknown (the broker does not answer)'}"
                     )
                 continue
-            if idle < self.stall_timeout:
-                continue
             if phase == "computing":
-                return self._fire(f"{self.name}: {what} has not finished after {idle:.0f} s (--stall-timeout)")
+                if idle >= self.stall_timeout:
+                    return self._fire(f"{self.name}: {what} has not finished after {idle:.0f} s (--stall-timeout)")
+                continue
+            if idle < WAIT_FACTOR * self.stall_timeout:
+                continue
             if probed == since:
                 if idle >= 2 * self.stall_timeout:
                     return self._fire(

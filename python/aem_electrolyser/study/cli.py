@@ -19,10 +19,7 @@ from pathlib import Path
 
 from aem_electrolyser.cli import CommandLine, UsageError, one_line, positive, run_command, say, writable_folder
 
-from . import engine
 from .definition import Study, StudyError
-from .report import write_report
-from .table import table
 
 
 def parser():
@@ -91,6 +88,11 @@ def _main(argv):
     if args.list:
         return _list(study, out)
     writable_folder(out)
+    # Dask, pandas and matplotlib (seconds to import) once the arguments and the study are known good.
+    from . import engine
+    from .report import write_report
+    from .table import table
+
     try:
         records = engine.run(
             study,

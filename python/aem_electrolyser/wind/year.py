@@ -46,7 +46,6 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.signal import lfilter
 from scipy.special import gamma, log_ndtr
 
 from aem_electrolyser import cli
@@ -95,6 +94,8 @@ def hourly_mean_wind(hours, seed=1, climate=WindClimate()):
     phi = climate.persistence
     eps = np.random.default_rng(_seeds(seed, 0)).standard_normal(int(hours))
     eps[1:] *= math.sqrt(1.0 - phi * phi)
+    from scipy.signal import lfilter  # 2 s to import: not before the command's arguments are checked
+
     z = lfilter([1.0], [1.0, -phi], eps)
     t = (np.arange(int(hours)) + 0.5) * HOUR
     return weibull_scale_at(t, climate) * (-log_ndtr(-z)) ** (1.0 / climate.weibull_shape)

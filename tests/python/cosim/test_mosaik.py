@@ -1,6 +1,7 @@
 """The hub FMU in mosaik 3 (aem_electrolyser.mosaik): its simulator against the FMU driven alone
-through fmpy (aem_electrolyser.hub.driver), and an hour of cigre_scenario (25 000 modules, 1 s steps,
-the CIGRE HV grid in pandapower) against conservation of power and fresh load flows.
+through fmpy (aem_electrolyser.hub.driver), and ten minutes of cigre_scenario (25 000 modules, 1 s
+steps, the CIGRE HV grid in pandapower: 601 exchanges of power and load flows) against conservation
+of power and fresh load flows.
 
 Expected values come from the FMU run alone, the wind series recomputed, the FMU's model
 description read with ElementTree, or pandapower run without mosaik; none from the simulator."""
@@ -21,13 +22,13 @@ import pandapower as pp
 import pandapower.networks as pn
 
 from aem_electrolyser.hub import HubFMU
-from aem_electrolyser.mosaik import cigre_scenario
+from aem_electrolyser.mosaik import cigre
 from aem_electrolyser.mosaik import simulator as aem_simulator
 from aem_electrolyser.mosaik.simulator import AemSimulator, FMUError
 from aem_electrolyser.wind.farm import farm_power
 
 SCENARIO = ["-m", "aem_electrolyser.mosaik.cigre_scenario"]
-SEED, DURATION, N = 1, 3600, 25_000
+SEED, DURATION, N = 1, 600, 25_000
 HUB_OUTPUTS = ["hubPower", "hubEnergy", "hubH2Produced", "modulesRunning", "modulesStandby"]
 
 # mosaik and pandapower: the co-simulation lane of scripts/test.sh
@@ -59,14 +60,14 @@ def equal_alone(fmu_path, wind):
 
 
 @pytest.fixture(scope="module")
-def hour(fmu_path, tmp_path_factory):
+def scenario(fmu_path, tmp_path_factory):
     out = tmp_path_factory.mktemp("mosaik")
-    r, wall = cigre_scenario.run(fmu_path, DURATION, SEED, "equal", out, verbose=False)
+    r, wall = cigre.run(fmu_path, DURATION, SEED, "equal", out, verbose=False)
     return out / "mosaik_cigre", r, wall
 
 
-def test_an_hour_runs_in_bounded_time_and_writes_its_files(hour):
-    out, r, wall = hour
+def test_the_scenario_runs_and_writes_its_files(scenario):
+    out, r, wall = scenario
     assert np.array_equal(r["time"], np.arange(DURATION + 1.0))
     with open(out.with_suffix(".csv")) as f:
         header = f.readline().rstrip("\n").split(",")
@@ -84,8 +85,8 @@ def test_an_hour_runs_in_bounded_time_and_writes_its_files(hour):
     assert out.with_suffix(".png").stat().st_size > 10_000
 
 
-def test_power_is_conserved_at_every_step(hour):
-    _, r, _ = hour
+def test_power_is_conserved_at_every_step(scenario):
+    _, r, _ = scenario
     # slack = loads (the hub's among them) + shunts - static generators (wind) - generators + losses
     residual = r["P_ext_grid[MW]"] - (
         r["P_load[MW]"]
@@ -102,26 +103,28 @@ def test_power_is_conserved_at_every_step(hour):
     assert np.array_equal(r["P_gen[MW]"], np.full(DURATION + 1, fixed.gen.p_mw.sum()))
 
 
-def test_the_grid_sees_the_hub_and_the_wind_of_the_same_instant(hour, wind, equal_alone):
-    _, r, _ = hour
+def test_the_grid_sees_the_hub_and_the_wind_of_the_same_instant(scenario, wind, equal_alone):
+    _, r, _ = scenario
     assert np.array_equal(r["wind in grid"], wind / 1e6)
     assert np.array_equal(r["powerReference"], wind)  # the hub is asked w(t) at t ...
     assert np.array_equal(r["hub load in grid"], equal_alone["hubPower"] / 1e6)  # ... and draws hubPower(t)
     assert np.array_equal(r["hub load in grid"], r["hubPower"] / 1e6)
 
 
-def test_the_hub_through_mosaik_is_the_fmu_alone_bit_for_bit(hour, equal_alone):
-    _, r, _ = hour
+def test_the_hub_through_mosaik_is_the_fmu_alone_bit_for_bit(scenario, equal_alone, wind):
+    _, r, _ = scenario
     for name in HUB_OUTPUTS:
         assert np.array_equal(r[name], equal_alone[name]), name
-    assert 45.0 * 3.6e9 < equal_alone["hubEnergy"][-1] < 47.0 * 3.6e9  # 45.9 MWh: the hub absorbs the wind
+    # the wind (36…55 MW) stays inside the hub's window (36…60 MW): the hub absorbs its energy, all
+    # but what the current dynamics lag behind (0.1 %)
+    assert equal_alone["hubEnergy"][-1] == pytest.approx(wind[:-1].sum() * 1.0, rel=5e-3)
 
 
-@pytest.mark.parametrize("t", [0, 1, 2, 59, 600, 1234, 1800, 2400, 3000, 3599, 3600])
-def test_each_load_flow_is_a_fresh_pandapower_load_flow(hour, t):
+@pytest.mark.parametrize("t", [0, 1, 2, 59, 123, 300, 451, 599, 600])
+def test_each_load_flow_is_a_fresh_pandapower_load_flow(scenario, t):
     """The recycled, warm-started load flow of the scenario against a flat-start one of the same
     injections on a new net."""
-    _, r, _ = hour
+    _, r, _ = scenario
     net = pn.create_cigre_network_hv()
     bus = int(net.bus.index[net.bus.name == "Bus 1"][0])
     pp.create_load(net, bus, p_mw=r["hub load in grid"][t])
@@ -135,9 +138,9 @@ def test_each_load_flow_is_a_fresh_pandapower_load_flow(hour, t):
 
 
 def test_bus_1_hosts_the_hub_and_the_wind_within_limits():
-    vmin, vmax, line, trafo = cigre_scenario.hosting_check("Bus 1")
+    vmin, vmax, line, trafo = cigre.hosting_check("Bus 1")
     assert 0.95 <= vmin and vmax <= 1.05 and line <= 100 and trafo <= 100
-    assert cigre_scenario.hosting_check("Bus 5")[0] < 0.95  # the weak end of the 220 kV ring would not
+    assert cigre.hosting_check("Bus 5")[0] < 0.95  # the weak end of the 220 kV ring would not
 
 
 def fmu_variables(fmu):

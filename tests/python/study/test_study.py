@@ -446,7 +446,6 @@ def children(pid):
     return out
 
 
-@pytest.mark.serial
 @pytest.mark.cluster
 def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
     path = write_study(tmp_path, SLOW_STUDY, fmu_path)
@@ -480,7 +479,6 @@ def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
     assert third.returncode == 0 and "[finished" not in third.stderr and stored(out) == after
 
 
-@pytest.mark.serial
 @pytest.mark.cluster
 def test_a_killed_worker_loses_nothing(tmp_path, fmu_path):
     path = write_study(tmp_path, SLOW_STUDY, fmu_path)
