@@ -10,12 +10,16 @@
 #   bash scripts/fuzz.sh                     # each target for 30 s (scripts/test.sh runs this)
 #   SECONDS_PER_TARGET=600 bash scripts/fuzz.sh
 #   RUNS=10000000 bash scripts/fuzz.sh       # the long run: 10^7 executions per target
+#   bash scripts/fuzz.sh build               # only build the targets (as a run would)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+export PATH="$PWD/.venv/bin:$PATH"   # cargo-fuzz (requirements.txt)
+if [ "${1:-}" = build ]; then
+  RUSTC_BOOTSTRAP=1 exec cargo fuzz build --release --debug-assertions
+fi
 limit=(-max_total_time="${SECONDS_PER_TARGET:-30}")
 [ -n "${RUNS:-}" ] && limit=(-runs="$RUNS")
 .venv/bin/python fuzz/seeds.py
-export PATH="$PWD/.venv/bin:$PATH"   # cargo-fuzz (requirements.txt)
 for target in fmu_state parameter_file identify_csv; do
   echo "== fuzz $target (${limit[*]})"
   RUSTC_BOOTSTRAP=1 cargo fuzz run --release --debug-assertions "$target" "fuzz/corpus/$target" -- \

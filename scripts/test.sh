@@ -6,10 +6,10 @@
 # through the `fmi` crate, aem-identify on synthetic campaigns) and the pytest suite (the
 # packaged .fmu through fmpy and five more importers, the win64 DLL and the commands under Wine,
 # the glibc level, the installed wheels and the sdist, the examples, the frameworks, reserves,
-# aem-study on Dask, the documentation site built strictly into target/site), then fuzzes
-# each byte-level input (scripts/fuzz.sh). Each phase's time is
-# printed on stderr. The checkout's commands (aem-identify, aem-run) are the release's portable
-# builds in target/dist/linux64/ (aem_electrolyser.locate takes the newer of those and a
+# aem-study on Dask, the documentation site built strictly into target/site; beside it, at the
+# lowest priority, the fuzzers' build), then fuzzes each byte-level input (scripts/fuzz.sh).
+# Each phase's time is printed on stderr. The checkout's commands (aem-identify, aem-run) are the
+# release's portable builds in target/dist/linux64/ (aem_electrolyser.locate takes the newer of those and a
 # target/release/ build of yours).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -23,7 +23,16 @@ phase .venv/bin/ruff check --quiet python tests benches packaging fuzz scripts
 phase cargo fmt --check
 phase .venv/bin/python packaging/release.py
 phase .venv/bin/python packaging/platforms.py test
+# The fuzzers' sanitizer build (its own folder, fuzz/target) runs at the lowest priority beside
+# pytest: it takes the CPU that pytest leaves idle while its co-simulations and commands wait,
+# and hardly any from the tests themselves.
+mkdir -p target
+nice -n 19 bash scripts/fuzz.sh build >target/fuzz-build.log 2>&1 &
+fuzz_build=$!
+trap 'kill $fuzz_build 2>/dev/null || true' EXIT
 phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup --durations=20
+fuzz_built() { wait $fuzz_build || { cat target/fuzz-build.log >&2; return 1; }; }
+phase fuzz_built
 # 5 s a target here: every harness builds and finds nothing in reach; the long runs are in
 # docs/robustness.md (SECONDS_PER_TARGET=3600 or RUNS=10000000 bash scripts/fuzz.sh).
 SECONDS_PER_TARGET="${SECONDS_PER_TARGET:-5}" phase bash scripts/fuzz.sh
