@@ -23,9 +23,11 @@ phase .venv/bin/ruff check --quiet python tests benches packaging fuzz scripts
 phase cargo fmt --check
 phase .venv/bin/python packaging/release.py
 phase .venv/bin/python packaging/platforms.py test
-# The fuzzers' sanitizer build (its own folder, fuzz/target) runs at the lowest priority beside
-# pytest: it takes the CPU that pytest leaves idle while its co-simulations and commands wait,
-# and hardly any from the tests themselves.
+# The fuzzers' sanitizer build (its own folder, fuzz/target; unoptimised here, which builds in
+# half the time: 5 s a target are a smoke test) runs at the lowest priority beside pytest: it
+# takes the CPU that pytest leaves idle while its co-simulations and commands wait, and hardly
+# any from the tests themselves.
+export FUZZ_PROFILE="${FUZZ_PROFILE:-dev}"
 mkdir -p target
 nice -n 19 bash scripts/fuzz.sh build >target/fuzz-build.log 2>&1 &
 fuzz_build=$!
@@ -33,7 +35,7 @@ trap 'kill $fuzz_build 2>/dev/null || true' EXIT
 phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup --durations=20
 fuzz_built() { wait $fuzz_build || { cat target/fuzz-build.log >&2; return 1; }; }
 phase fuzz_built
-# 5 s a target here: every harness builds and finds nothing in reach; the long runs are in
-# docs/robustness.md (SECONDS_PER_TARGET=3600 or RUNS=10000000 bash scripts/fuzz.sh).
+# 5 s a target here: every harness builds and finds nothing in reach; the long runs (release
+# build) are in docs/robustness.md (SECONDS_PER_TARGET=3600 or RUNS=10000000 bash scripts/fuzz.sh).
 SECONDS_PER_TARGET="${SECONDS_PER_TARGET:-5}" phase bash scripts/fuzz.sh
 echo "test.sh: every test passed in $SECONDS s" >&2

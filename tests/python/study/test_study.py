@@ -391,7 +391,7 @@ def test_progress_follows_quiet_and_the_terminal(monkeypatch, stdout_tty, stream
     assert (stream.text == []) == (kind == "nothing")
 
 
-SLOW_STUDY = """horizon = "6 h"
+SLOW_STUDY = """horizon = "3 h"
 [parameters]
 nModules = 25000
 dispatch = "sequential"
