@@ -10,9 +10,10 @@ use std::path::PathBuf;
 use crate::model_description::{
     BooleanVariable, Causality, IntegerVariable, RealVariable, StringVariable,
 };
+use aem_model::events::capacities_beyond_window;
 use aem_model::parameter_file::ParameterFile;
 use aem_model::{
-    shown, FrequencyResponse, Parameters, Plant, PlantConfig, PlantSettings, ReserveStep,
+    shown, EventState, FrequencyResponse, Parameters, Plant, PlantConfig, PlantEvent, PlantSettings,
 };
 
 use super::file_location::{locate, Os};
@@ -28,29 +29,6 @@ use super::variables::{
 /// Relative tolerance when comparing a master's communication point with the FMU's time;
 /// masters that sum their step sizes drift by a few ulps from any other sum.
 const TIME_TOLERANCE: f64 = 1e-9;
-
-/// Relative distance outside the setpoint window below which no warning is logged.
-const WINDOW_TOLERANCE: f64 = 1e-9;
-
-/// A power for messages, to four significant digits: 1042.66 W, 12.40 kW, 59.87 MW.
-fn watts(x: f64) -> String {
-    let (value, unit) = match x.abs() {
-        a if a >= 1e6 => (x / 1e6, "MW"),
-        a if a >= 1e3 => (x / 1e3, "kW"),
-        _ => (x, "W"),
-    };
-    let decimals = if value.abs() >= 100.0 {
-        1
-    } else if value.abs() >= 10.0 {
-        2
-    } else {
-        3
-    };
-    format!("{value:.decimals$} {unit}")
-}
-
-/// Shortfall of a reserve request, relative to the hub's largest power, below which none is logged.
-const RESERVE_TOLERANCE: f64 = 1e-9;
 
 const INSTANCE_MAGIC: u64 = 0x4145_4d5f_494e_5354; // "AEM_INST"
 
@@ -68,13 +46,10 @@ pub struct Instance {
     inputs: Inputs,
     /// d(setpoint)/dt for the next step [%/s], from fmi2SetRealInputDerivatives.
     setpoint_slope: f64,
-    excursion: bool,
+    /// The plant's events under way (each logged once when it begins and once when it ends).
+    events: EventState,
     /// The reserves' controller (FFR's state), from the settings at initialisation.
     response: FrequencyResponse,
-    /// Whether the window keeps the hub from delivering the reserves' request (logged once).
-    reserve_shortfall: bool,
-    /// Whether the reserves ask for more draw, which the ramp limit slows (logged once).
-    reserve_increase: bool,
     time: f64,
     /// stopTime of fmi2SetupExperiment, if defined: steps past it are refused [s].
     stop_time: Option<f64>,
@@ -105,10 +80,8 @@ impl Instance {
             settings,
             inputs,
             setpoint_slope: 0.0,
-            excursion: false,
+            events: EventState::default(),
             response: FrequencyResponse::new(settings.reserve),
-            reserve_shortfall: false,
-            reserve_increase: false,
             time: 0.0,
             stop_time: None,
             module_parameter_file: String::new(),
@@ -240,10 +213,17 @@ impl Instance {
             ),
         );
         let slope_dropped = !plant.takes_setpoint_slope() && self.setpoint_slope != 0.0;
-        let capacity_warned = self.warn_capacities_beyond_the_window(&config, &plant);
+        let capacity_warned = capacities_beyond_window(
+            &config,
+            &plant,
+            self.inputs.setpoint,
+            self.inputs.power_reference,
+        )
+        .iter()
+        .fold(Status::Ok, |status, event| status.max(self.report(event)))
+            == Status::Warning;
         self.response = FrequencyResponse::new(config.reserve);
-        self.reserve_shortfall = false;
-        self.reserve_increase = false;
+        self.events.reset_reserves();
         self.module_sets = sets;
         self.plant = Some((config, plant));
         self.state = FmiState::StepComplete;
@@ -265,53 +245,6 @@ impl Instance {
         Ok(status)
     }
 
-    /// Warns, naming the shortfall, where the reserves offered together ask for more than the
-    /// operating window allows at the initial operating point. True if it warned.
-    fn warn_capacities_beyond_the_window(&mut self, config: &PlantConfig, plant: &Plant) -> bool {
-        let r = &config.reserve;
-        let (setpoint, power) = (self.inputs.setpoint, self.inputs.power_reference);
-        let mut warned = false;
-        let down = [
-            ("fcrNCapacity", r.fcr_n),
-            ("fcrDUpCapacity", r.fcr_d_up),
-            ("fcrCapacity", r.fcr),
-            ("ffrCapacity", r.ffr),
-        ];
-        let up = [
-            ("fcrNCapacity", r.fcr_n),
-            ("fcrDDownCapacity", r.fcr_d_down),
-            ("fcrCapacity", r.fcr),
-        ];
-        for (products, sign, direction) in [(&down[..], -1.0, "less"), (&up[..], 1.0, "more")] {
-            let offered: f64 = products.iter().map(|(_, c)| c).sum();
-            let names: Vec<&str> = products
-                .iter()
-                .filter(|(_, c)| *c > 0.0)
-                .map(|(n, _)| *n)
-                .collect();
-            if offered <= 0.0 {
-                continue;
-            }
-            let step = plant.reserve_step(config, setpoint, power, sign * offered);
-            if step.shortfall.abs() > RESERVE_TOLERANCE * step.range.1.max(1.0) {
-                let (lo, hi) = step.range;
-                self.logger.warning(&format!(
-                    "{} = {} asks the hub to draw up to that much {direction} than {} at the initial operating point; the \
-                     operating window ({} to {}) allows {} of it: {} short",
-                    names.join(" + "),
-                    watts(offered),
-                    watts(step.baseline),
-                    watts(lo),
-                    watts(hi),
-                    watts(offered - step.shortfall.abs()),
-                    watts(step.shortfall.abs())
-                ));
-                warned = true;
-            }
-        }
-        warned
-    }
-
     /// What the reserves ask for at the frequency now [W]: the request of a step begun now
     /// (FFR counted if the frequency is at its trigger). 0 before initialisation.
     fn reserve_request(&self) -> f64 {
@@ -324,48 +257,16 @@ impl Instance {
         response.request(self.inputs.frequency)
     }
 
-    /// Logs, once per excursion, where the window keeps the hub from delivering the request
-    /// and where an increase of draw is slowed by the rising-current limit.
-    fn log_reserve_step(&mut self, step: &ReserveStep) -> Status {
-        let mut status = Status::Ok;
-        let short = step.shortfall.abs() > RESERVE_TOLERANCE * step.range.1.max(1.0);
-        if short && !self.reserve_shortfall {
-            let (lo, hi) = step.range;
-            self.logger.warning(&format!(
-                "frequency = {} Hz: reserveRequest = {} on {}; the operating window ({} to {}) keeps the hub {} short \
-                 until the request fits again",
-                self.inputs.frequency,
-                watts(step.request),
-                watts(step.baseline),
-                watts(lo),
-                watts(hi),
-                watts(step.shortfall.abs())
-            ));
-            status = Status::Warning;
+    /// Logs a plant event: a warning where the plant does not do what it was asked, else news
+    /// (LOG_EVENTS).
+    fn report(&self, event: &PlantEvent) -> Status {
+        if event.is_warning() {
+            self.logger.warning(&event.to_string());
+            Status::Warning
+        } else {
+            self.logger.info(LOG_EVENTS, &event.to_string());
+            Status::Ok
         }
-        if !short && self.reserve_shortfall {
-            self.logger.info(
-                LOG_EVENTS,
-                &format!(
-                    "frequency = {} Hz: the reserve request fits the operating window again",
-                    self.inputs.frequency
-                ),
-            );
-        }
-        self.reserve_shortfall = short;
-        let increase = step.request > 0.0;
-        if increase && !self.reserve_increase {
-            let rate = self.params.ramp_up_limit;
-            self.logger.warning(&format!(
-                "frequency = {} Hz asks the hub to draw {} more: each module's current rises at most rampUpLimit = {rate} A/s, \
-                 so the increase follows that ramp",
-                self.inputs.frequency,
-                watts(step.request)
-            ));
-            status = Status::Warning;
-        }
-        self.reserve_increase = increase;
-        status
     }
 
     /// fmi2Terminate.
@@ -670,35 +571,16 @@ impl Instance {
         }
     }
 
-    /// Logs a warning when the setpoint leaves the operating window (once per excursion).
-    /// A hub's setpoint is shared out by its dispatch, so only a single module warns.
+    /// Reports where a single module's setpoint leaves or returns to the operating window.
+    /// A hub's setpoint is shared out by its dispatch, so only a single module reports.
     fn update_excursion(&mut self) -> Status {
         if self.plant.is_none() || !self.single_module() {
             return Status::Ok;
         }
-        let (lo, hi) = (self.params.min_setpoint, self.params.max_setpoint);
-        // Rounding noise from a master's interpolation (100.00000000000001 %) is clamped
-        // silently; only a real excursion is worth a warning.
-        let slack = WINDOW_TOLERANCE * lo.abs().max(hi.abs()).max(1.0);
-        let setpoint = self.inputs.setpoint;
-        let outside = setpoint < lo - slack || setpoint > hi + slack;
-        if outside && !self.excursion {
-            self.excursion = true;
-            self.logger.warning(&format!(
-                "setpoint = {} % is outside the operating window [{lo}, {hi}] %; the module runs at {} % until it returns",
-                setpoint,
-                self.params.clamp_setpoint(setpoint)
-            ));
-            return Status::Warning;
+        match self.events.setpoint(&self.params, self.inputs.setpoint) {
+            Some(event) => self.report(&event),
+            None => Status::Ok,
         }
-        if !outside && self.excursion {
-            self.excursion = false;
-            self.logger.info(
-                LOG_EVENTS,
-                &format!("setpoint = {setpoint} % is back in the operating window"),
-            );
-        }
-        Status::Ok
     }
 
     /// fmi2DoStep: advances exactly from the FMU's time by `h` seconds.
@@ -753,10 +635,15 @@ impl Instance {
         // the FMU's time never drifts away from it.
         self.time = communication_point + h;
         self.setpoint_slope = 0.0;
-        if offered {
-            return Ok(self.log_reserve_step(&step));
+        if !offered {
+            return Ok(Status::Ok);
         }
-        Ok(Status::Ok)
+        let events = self
+            .events
+            .reserve_step(&step, inputs.frequency, self.params.ramp_up_limit);
+        Ok(events
+            .iter()
+            .fold(Status::Ok, |status, event| status.max(self.report(event))))
     }
 
     /// fmi2GetRealStatus(fmi2LastSuccessfulTime).
@@ -772,15 +659,15 @@ impl Instance {
             self.settings,
             self.inputs,
             self.setpoint_slope,
-            self.excursion,
+            self.events.setpoint_outside,
             self.time,
             self.stop_time,
             self.module_parameter_file.clone(),
             self.module_sets.clone(),
             ReserveState {
                 fast: self.response.fast,
-                shortfall: self.reserve_shortfall,
-                increase: self.reserve_increase,
+                shortfall: self.events.reserve_shortfall,
+                increase: self.events.reserve_increase,
             },
             self.plant.as_ref().map(|(_, plant)| plant.snapshot()),
         )
@@ -825,13 +712,15 @@ impl Instance {
         self.settings = saved.settings;
         self.inputs = saved.inputs;
         self.setpoint_slope = saved.setpoint_slope;
-        self.excursion = saved.excursion;
+        self.events = EventState {
+            setpoint_outside: saved.excursion,
+            reserve_shortfall: saved.reserve.shortfall,
+            reserve_increase: saved.reserve.increase,
+        };
         self.response = FrequencyResponse {
             settings: saved.settings.reserve,
             fast: saved.reserve.fast,
         };
-        self.reserve_shortfall = saved.reserve.shortfall;
-        self.reserve_increase = saved.reserve.increase;
         self.time = saved.time;
         self.stop_time = saved.stop_time;
         self.module_parameter_file = saved.module_parameter_file.clone();

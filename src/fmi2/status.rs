@@ -3,8 +3,8 @@
 
 use fmi_sys::fmi2 as sys;
 
-/// A successful call's status.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A successful call's status, ordered by what deserves more attention.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Status {
     /// fmi2OK.
     Ok,

@@ -12,7 +12,8 @@
 //!   [`lanes`]: modules with parameters of their own, stepped four at a time.
 //! - [`spread`]: seeded per-module parameter sets.
 //! - [`operation`]: a module's operating states (idle, curve, steady, standby, blowdown).
-//! - [`plant`]: what an FMU instance simulates: one module or a hub, with its settings.
+//! - [`plant`]: what an FMU instance simulates: one module or a hub, with its settings;
+//!   [`events`]: what it reports while it runs (window excursions, reserve shortfalls).
 //! - [`parameter_file`]: the JSON file of per-module parameter sets that `aem-identify`
 //!   writes and the FMU reads.
 
@@ -22,6 +23,7 @@
 
 pub mod dispatch;
 pub mod dynamics;
+pub mod events;
 pub mod hub;
 pub mod lanes;
 pub mod module;
@@ -36,6 +38,7 @@ pub mod spread;
 
 pub use dispatch::{Demand, DispatchPolicy};
 pub use dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
+pub use events::{EventState, PlantEvent};
 pub use hub::{Hub, HubConfig};
 pub use module::{Module, ModuleState, StepError};
 pub use operation::{BelowMinimum, OperatingState, OperationParameters};
