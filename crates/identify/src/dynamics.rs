@@ -179,11 +179,9 @@ impl Residuals for StepResiduals<'_> {
         }
         let p = self.free.apply(&self.base, theta);
         p.validate().ok()?;
-        let (tz, t1, t2) = (p.tau_zero, p.tau_pole1, p.tau_pole2);
-        let d = t2 - t1;
-        let a = (tz - t1) / d;
-        let taus = [t1, t2];
-        let weights = [a, 1.0 - a];
+        let (a, b) = p.modal_weights();
+        let taus = [p.tau_pole1, p.tau_pole2];
+        let weights = [a, b];
         let modal = modal::Modal {
             gain: p.gain,
             taus: &taus,
@@ -195,7 +193,9 @@ impl Residuals for StepResiduals<'_> {
         if !modal.residuals(self.set, &self.plan, &mut out, Some(&mut raw[..])) {
             return None;
         }
-        let (da_z, da_1, da_2) = (tz / d, t1 * (tz - t2) / (d * d), -t2 * (tz - t1) / (d * d));
+        // ∂a/∂ln τ = τ·∂a/∂τ (the fit's parameters are logarithms)
+        let (a_z, a_1, a_2) = p.modal_weight_sensitivities();
+        let (da_z, da_1, da_2) = (p.tau_zero * a_z, p.tau_pole1 * a_1, p.tau_pole2 * a_2);
         let (k, t1s, t2s, dw) = (&raw[0], &raw[1], &raw[2], &raw[3]);
         let columns = k
             .iter()

@@ -136,7 +136,7 @@ pub fn check_structure(
     let steps = &dynamics.negative_steps;
     let window = (params.min_setpoint, params.max_setpoint);
     let p = &dynamics.parameters;
-    let a = (p.tau_zero - p.tau_pole1) / (p.tau_pole2 - p.tau_pole1);
+    let (a, b) = p.modal_weights();
     let n_residuals: usize = steps.iter().map(|&k| set.steps[k].post.len()).sum();
     let mut candidates = Vec::new();
     let mut failures = Vec::new();
@@ -161,7 +161,7 @@ pub fn check_structure(
                 p.tau_pole2.ln(),
                 (p.tau_pole1 * p.tau_pole2).sqrt().ln(),
                 0.95 * a,
-                0.95 * (1.0 - a),
+                0.95 * b,
             ],
         ),
     ];
@@ -214,10 +214,10 @@ pub fn check_structure(
 /// τ [s] of the first-order step response 1 − e^(−t/τ) closest (least squares over
 /// t = 1…600 s) to the second order's 1 − a e^(−t/τp1) − (1 − a) e^(−t/τp2).
 fn closest_first_order(p: &Parameters) -> f64 {
-    let a = (p.tau_zero - p.tau_pole1) / (p.tau_pole2 - p.tau_pole1);
+    let (a, b) = p.modal_weights();
     let target: Vec<f64> = (1..=600)
         .map(f64::from)
-        .map(|t| a * (-t / p.tau_pole1).exp() + (1.0 - a) * (-t / p.tau_pole2).exp())
+        .map(|t| a * (-t / p.tau_pole1).exp() + b * (-t / p.tau_pole2).exp())
         .collect();
     (0..80)
         .map(|i| 0.5 * 1000f64.powf(f64::from(i) / 79.0))

@@ -2,7 +2,9 @@
 //!
 //! Linear part (paper eq. 1), setpoint u [%] to unlimited current I_tf [A]:
 //!   G(s) = K(τz s + 1) / ((τp1 s + 1)(τp2 s + 1))
-//!        = K·a/(τp1 s + 1) + K·b/(τp2 s + 1),  a = (τz − τp1)/(τp2 − τp1),  b = 1 − a.
+//!        = K·a/(τp1 s + 1) + K·b/(τp2 s + 1),
+//!   a = (τz − τp1)/(τp2 − τp1),  b = (τp2 − τz)/(τp2 − τp1) = 1 − a
+//!   (computed in one place, [`Parameters::modal_weights`]).
 //! Modal states z1, z2 [A]: τpi·dzi/dt = K·u − zi, and I_tf = a·z1 + b·z2.
 //!
 //! Rising-rate limit r [A/s] on the output, none on falling current:
@@ -219,9 +221,8 @@ impl TrackingStep {
 impl CurrentDynamics {
     /// Derives the modal constants; `params` must have passed [`Parameters::validate`].
     pub fn new(params: &Parameters) -> Self {
-        let (t1, t2, tz) = (params.tau_pole1, params.tau_pole2, params.tau_zero);
-        let a = (tz - t1) / (t2 - t1);
-        let b = (t2 - tz) / (t2 - t1);
+        let (t1, t2) = (params.tau_pole1, params.tau_pole2);
+        let (a, b) = params.modal_weights();
         let (lambda1, lambda2) = (1.0 / t1, 1.0 / t2);
         CurrentDynamics {
             gain: params.gain,

@@ -469,11 +469,9 @@ mod tests {
             false,
         );
         assert!(o[0].step.tracks);
-        let a = (p.tau_zero - p.tau_pole1) / (p.tau_pole2 - p.tau_pole1);
+        let (a, b) = p.modal_weights();
         let want = p.gain * 70.0
-            + p.gain
-                * 20.0
-                * (a * (-2.0 / p.tau_pole1).exp() + (1.0 - a) * (-2.0 / p.tau_pole2).exp());
+            + p.gain * 20.0 * (a * (-2.0 / p.tau_pole1).exp() + b * (-2.0 / p.tau_pole2).exp());
         assert!(
             (o[0].step.state.current - want).abs() < 1e-12,
             "{} vs {want}",

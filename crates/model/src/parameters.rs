@@ -231,11 +231,10 @@ impl Parameters {
                 ),
             ));
         }
-        // Modal weights a = (τz − τp1)/(τp2 − τp1), b = 1 − a: the exact integrals of I² scale
-        // with a²·τp1 and b²·τp2 times the squared current, which must stay representable.
+        // The exact integrals of I² scale with a²·τp1 and b²·τp2 (the modal weights) times the
+        // squared current, which must stay representable.
         let (t1, t2) = (self.tau_pole1, self.tau_pole2);
-        let a = (self.tau_zero - t1) / (t2 - t1);
-        let b = 1.0 - a;
+        let (a, b) = self.modal_weights();
         let i2 = current * current;
         if !((a * a * t1 * i2).is_finite()
             && (b * b * t2 * i2).is_finite()
@@ -258,6 +257,22 @@ impl Parameters {
     /// Setpoint limited to the operating window [minSetpoint, maxSetpoint] [%].
     pub fn clamp_setpoint(&self, setpoint_percent: f64) -> f64 {
         clamped(setpoint_percent, self.min_setpoint, self.max_setpoint)
+    }
+
+    /// The weights (a, b) of G(s) in modal form, the one place they are computed:
+    ///   G(s) = K·(a/(τp1 s + 1) + b/(τp2 s + 1)),  a = (τz − τp1)/(τp2 − τp1),
+    ///   b = (τp2 − τz)/(τp2 − τp1)  (a + b = 1) [1].
+    pub fn modal_weights(&self) -> (f64, f64) {
+        let (t1, t2, tz) = (self.tau_pole1, self.tau_pole2, self.tau_zero);
+        ((tz - t1) / (t2 - t1), (t2 - tz) / (t2 - t1))
+    }
+
+    /// ∂a/∂τz, ∂a/∂τp1, ∂a/∂τp2 of the fast mode's weight a [1/s]:
+    ///   1/(τp2 − τp1),  (τz − τp2)/(τp2 − τp1)²,  −(τz − τp1)/(τp2 − τp1)².
+    pub fn modal_weight_sensitivities(&self) -> (f64, f64, f64) {
+        let (t1, t2, tz) = (self.tau_pole1, self.tau_pole2, self.tau_zero);
+        let d = t2 - t1;
+        (1.0 / d, (tz - t2) / (d * d), -(tz - t1) / (d * d))
     }
 }
 
