@@ -692,7 +692,9 @@ impl Instance {
                     saved.inputs.power_reference,
                 )
                 .map_err(|e| invalid(e.to_string()))?;
-                plant.restore(snapshot.clone()).map_err(invalid)?;
+                plant
+                    .restore(snapshot.clone())
+                    .map_err(|e| invalid(e.to_string()))?;
                 Some((config, plant))
             }
             None => None,

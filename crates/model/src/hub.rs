@@ -21,6 +21,7 @@ use super::lanes::{LaneBank, Share, LANES};
 use super::module::StepError;
 use super::operation::{BelowMinimum, Command, OperatingState, OperationParameters, UnitState};
 use super::parameters::{ParameterError, Parameters};
+use super::snapshot_error::SnapshotError;
 use stepper::{ChunkVisitor, Stepper};
 use tally::{Part, ReadingSums, Survey, Tally};
 
@@ -768,17 +769,18 @@ impl Hub {
 
     /// Restores a snapshot taken from a hub of the same configuration and parameter sets.
     /// Refuses (changing nothing) a snapshot that cannot belong to this hub.
-    pub fn restore(&mut self, snapshot: HubSnapshot) -> Result<(), String> {
+    pub fn restore(&mut self, snapshot: HubSnapshot) -> Result<(), SnapshotError> {
         let kinds = self.types.len();
         let mut per_kind = vec![0u64; kinds];
         for g in &snapshot.groups {
             let u = &g.unit;
             let c = &u.current;
             if g.count == 0 || g.kind as usize >= kinds {
-                return Err(format!(
-                    "a group has count {} and parameter set {} of {kinds}",
-                    g.count, g.kind
-                ));
+                return Err(SnapshotError::BadGroup {
+                    count: g.count,
+                    kind: g.kind,
+                    kinds,
+                });
             }
             if ![u.timer, c.current, c.z1, c.z2, g.running]
                 .iter()
@@ -786,7 +788,7 @@ impl Hub {
                 || u.timer < 0.0
                 || g.running < 0.0
             {
-                return Err("a group holds a non-finite or negative value".into());
+                return Err(SnapshotError::NonFiniteGroup);
             }
             per_kind[g.kind as usize] += g.count as u64;
         }
@@ -795,10 +797,9 @@ impl Hub {
             .zip(&self.types)
             .any(|(&n, ty)| n != ty.count as u64)
         {
-            return Err(format!(
-                "the groups do not hold exactly the hub's {} modules",
-                self.config.n_modules
-            ));
+            return Err(SnapshotError::ModuleCount {
+                n_modules: self.config.n_modules,
+            });
         }
         let t = &snapshot.totals;
         if ![t.time, t.energy, t.h2_produced, t.running]
@@ -806,7 +807,7 @@ impl Hub {
             .all(|x| x.is_finite())
             || snapshot.running_target > self.config.n_modules
         {
-            return Err("the hub's totals or dispatch target are out of range".into());
+            return Err(SnapshotError::TotalsOutOfRange);
         }
         let active: u64 = snapshot
             .groups
@@ -815,10 +816,10 @@ impl Hub {
             .map(|g| g.count as u64)
             .sum();
         if active != snapshot.running_target as u64 {
-            return Err(format!(
-                "{active} modules are dispatched but the dispatch target is {}",
-                snapshot.running_target
-            ));
+            return Err(SnapshotError::DispatchMismatch {
+                active,
+                target: snapshot.running_target,
+            });
         }
         self.groups = snapshot.groups;
         self.running_target = snapshot.running_target;

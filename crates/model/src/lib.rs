@@ -34,6 +34,7 @@ pub mod plant;
 pub mod reserve;
 mod roots;
 mod select;
+mod snapshot_error;
 pub mod spread;
 
 pub use dispatch::{Demand, DispatchPolicy};
@@ -45,6 +46,7 @@ pub use operation::{BelowMinimum, OperatingState, OperationParameters};
 pub use parameters::{ModuleParameter, ParameterError, Parameters};
 pub use plant::{Plant, PlantConfig, PlantSettings, PlantSnapshot, ReserveStep};
 pub use reserve::{FastReserve, FrequencyResponse, ReserveSettings};
+pub use snapshot_error::SnapshotError;
 
 /// A number for messages: plain where that is short, scientific otherwise (1e306, not 307 digits).
 pub fn shown(x: f64) -> String {

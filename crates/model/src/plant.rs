@@ -23,6 +23,7 @@ use super::module::{Module, ModuleState, StepError};
 use super::operation::{BelowMinimum, OperatingState, OperationParameters};
 use super::parameters::{ParameterError, Parameters};
 use super::reserve::{FrequencyResponse, ReserveSettings};
+use super::snapshot_error::SnapshotError;
 use super::spread::spread_parameters;
 
 const SECONDS_PER_HOUR: f64 = 3600.0;
@@ -461,7 +462,7 @@ impl Plant {
 
     /// Restores a snapshot of a plant built with the same parameters and configuration;
     /// refuses (changing nothing) one of the other kind or out of range.
-    pub fn restore(&mut self, snapshot: PlantSnapshot) -> Result<(), String> {
+    pub fn restore(&mut self, snapshot: PlantSnapshot) -> Result<(), SnapshotError> {
         match (self, snapshot) {
             (Plant::Module(m), PlantSnapshot::Module(state)) => {
                 m.restore(state);
@@ -472,7 +473,7 @@ impl Plant {
                 *readings = hub.readings();
                 Ok(())
             }
-            _ => Err("the state belongs to a plant of another kind (single module or hub)".into()),
+            _ => Err(SnapshotError::OtherKind),
         }
     }
 

@@ -490,8 +490,15 @@ fn a_snapshot_whose_dispatch_target_disagrees_with_its_groups_is_refused() {
     let mut snapshot = hub.snapshot();
     snapshot.running_target += 1;
     let before = hub.snapshot();
-    let e = hub.restore(snapshot).unwrap_err();
-    assert!(e.contains("dispatch target"), "{e}");
+    let e = hub.restore(snapshot.clone()).unwrap_err();
+    assert_eq!(
+        e,
+        SnapshotError::DispatchMismatch {
+            active: u64::from(snapshot.running_target - 1),
+            target: snapshot.running_target
+        }
+    );
+    assert!(e.to_string().contains("dispatch target"), "{e}");
     assert_eq!(hub.snapshot(), before);
 }
 
