@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::{ModuleParameter, Parameters};
+use crate::{ModuleParameter, ParameterError, Parameters};
 
 /// A parameter file that cannot be read; shown as `path: message` or `path:line: message`.
 #[derive(Clone, Debug, PartialEq)]
@@ -43,6 +43,74 @@ impl fmt::Display for ParameterFileError {
 }
 
 impl std::error::Error for ParameterFileError {}
+
+/// A module that cannot be chosen from a parameter file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum ModuleChoiceError {
+    /// No module of that id; `ids` are the file's.
+    NoSuchModule { id: String, ids: Vec<String> },
+    /// None named and the file has several.
+    Ambiguous { ids: Vec<String> },
+}
+
+impl fmt::Display for ModuleChoiceError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ModuleChoiceError::NoSuchModule { id, ids } => {
+                write!(f, "no module `{id}` (modules: {})", ids.join(", "))
+            }
+            ModuleChoiceError::Ambiguous { ids } => write!(
+                f,
+                "{} modules (choose one with --module: {})",
+                ids.len(),
+                ids.join(", ")
+            ),
+        }
+    }
+}
+
+impl std::error::Error for ModuleChoiceError {}
+
+/// A module's entry whose parameters the model refuses.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ModuleEntryError {
+    /// A name that is none of the FMU's parameters.
+    UnknownParameter { name: String },
+    /// A parameter given in another unit than the FMU's.
+    WrongUnit {
+        name: String,
+        unit: String,
+        expected: &'static str,
+    },
+    /// The values, over their base, are not a valid parameter set.
+    Invalid(ParameterError),
+}
+
+impl fmt::Display for ModuleEntryError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ModuleEntryError::UnknownParameter { name } => {
+                let names: Vec<&str> = ModuleParameter::ALL.iter().map(|p| p.name()).collect();
+                write!(
+                    f,
+                    "unknown parameter `{name}` (the FMU's parameters: {})",
+                    names.join(", ")
+                )
+            }
+            ModuleEntryError::WrongUnit {
+                name,
+                unit,
+                expected,
+            } => write!(
+                f,
+                "parameter `{name}` has unit `{unit}`, the FMU's is `{expected}`"
+            ),
+            ModuleEntryError::Invalid(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for ModuleEntryError {}
 
 /// Where a parameter value comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -137,20 +205,17 @@ impl ParameterFile {
     }
 
     /// The module called `id`, or the only one.
-    pub fn module(&self, id: Option<&str>) -> std::result::Result<&ModuleEntry, String> {
-        let ids: Vec<&str> = self.modules.iter().map(|m| m.module.as_str()).collect();
+    pub fn module(&self, id: Option<&str>) -> Result<&ModuleEntry, ModuleChoiceError> {
+        let ids = || self.modules.iter().map(|m| m.module.clone()).collect();
         match id {
-            Some(id) => self
-                .modules
-                .iter()
-                .find(|m| m.module == id)
-                .ok_or_else(|| format!("no module `{id}` (modules: {})", ids.join(", "))),
+            Some(id) => self.modules.iter().find(|m| m.module == id).ok_or_else(|| {
+                ModuleChoiceError::NoSuchModule {
+                    id: id.into(),
+                    ids: ids(),
+                }
+            }),
             None if self.modules.len() == 1 => Ok(&self.modules[0]),
-            None => Err(format!(
-                "{} modules (choose one with --module: {})",
-                self.modules.len(),
-                ids.join(", ")
-            )),
+            None => Err(ModuleChoiceError::Ambiguous { ids: ids() }),
         }
     }
 }
@@ -158,32 +223,28 @@ impl ParameterFile {
 impl ModuleEntry {
     /// The model's parameters: the file's values over the defaults (Table I).
     /// Unknown names, wrong units and invalid sets are refused.
-    pub fn parameters(&self) -> std::result::Result<Parameters, String> {
+    pub fn parameters(&self) -> Result<Parameters, ModuleEntryError> {
         self.parameters_over(Parameters::default())
     }
 
     /// The model's parameters: the file's values over `base`. Unknown names, wrong units and
     /// invalid sets are refused.
-    pub fn parameters_over(&self, base: Parameters) -> std::result::Result<Parameters, String> {
+    pub fn parameters_over(&self, base: Parameters) -> Result<Parameters, ModuleEntryError> {
         let mut p = base;
         for (name, entry) in &self.parameters {
             let Some(parameter) = ModuleParameter::from_name(name) else {
-                let names: Vec<&str> = ModuleParameter::ALL.iter().map(|p| p.name()).collect();
-                return Err(format!(
-                    "unknown parameter `{name}` (the FMU's parameters: {})",
-                    names.join(", ")
-                ));
+                return Err(ModuleEntryError::UnknownParameter { name: name.clone() });
             };
             if entry.unit != parameter.unit() {
-                return Err(format!(
-                    "parameter `{name}` has unit `{}`, the FMU's is `{}`",
-                    entry.unit,
-                    parameter.unit()
-                ));
+                return Err(ModuleEntryError::WrongUnit {
+                    name: name.clone(),
+                    unit: entry.unit.clone(),
+                    expected: parameter.unit(),
+                });
             }
             *p.field_mut(parameter) = entry.value;
         }
-        p.validate().map_err(|e| e.to_string())?;
+        p.validate().map_err(ModuleEntryError::Invalid)?;
         Ok(p)
     }
 }
@@ -228,12 +289,19 @@ mod tests {
         m.parameters.insert("gain".into(), entry("A/%"));
         assert_eq!(m.parameters().unwrap().gain, 0.5);
         m.parameters.insert("gain".into(), entry("A"));
-        assert!(m.parameters().unwrap_err().contains("unit `A`"));
+        let wrong = m.parameters().unwrap_err();
+        assert_eq!(
+            wrong,
+            ModuleEntryError::WrongUnit {
+                name: "gain".into(),
+                unit: "A".into(),
+                expected: "A/%"
+            }
+        );
+        assert!(wrong.to_string().contains("unit `A`"), "{wrong}");
         m.parameters.remove("gain");
         m.parameters.insert("gainz".into(), entry("A/%"));
-        assert!(m
-            .parameters()
-            .unwrap_err()
-            .contains("unknown parameter `gainz`"));
+        let unknown = m.parameters().unwrap_err().to_string();
+        assert!(unknown.contains("unknown parameter `gainz`"), "{unknown}");
     }
 }

@@ -391,7 +391,7 @@ def test_progress_follows_quiet_and_the_terminal(monkeypatch, stdout_tty, stream
     assert (stream.text == []) == (kind == "nothing")
 
 
-SLOW_STUDY = """horizon = "3 h"
+GATED_STUDY = """horizon = "3 h"
 [parameters]
 nModules = 25000
 dispatch = "sequential"
@@ -401,6 +401,41 @@ generator = "wind"
 [axes]
 seed = [1, 2, 3, 4, 5, 6]
 """
+
+GATED_RUNNER = """#!/bin/sh
+# aem-run behind a gate the test controls: each run waits for a token in GATE (taken with an
+# atomic rename, so one token lets exactly one run through) or for GATE/open; it gives up when
+# its worker has gone (so that nothing outlives a stopped study).
+while :; do
+  [ -e "{gate}/open" ] && exec "{runner}" "$@"
+  for token in "{gate}"/token-*; do
+    mv "$token" "{gate}/taken-$$" 2>/dev/null && exec "{runner}" "$@"
+  done
+  kill -0 $PPID 2>/dev/null || exit 3
+  sleep 0.05
+done
+"""
+
+
+class Gate:
+    """Scenarios of aem-study run only as far as the test lets them: `--runner` is a gated
+    aem-run (its name keeps "aem-run"), so the test, not the machine's speed, decides how many
+    scenarios finish before it stops the study or kills a worker."""
+
+    def __init__(self, folder):
+        self.folder = folder / "gate"
+        self.folder.mkdir()
+        self.runner = folder / "gated-aem-run"
+        self.runner.write_text(GATED_RUNNER.format(gate=self.folder, runner=RUNNER))
+        self.runner.chmod(0o755)
+
+    def let_through(self, n):
+        for _ in range(n):
+            token = self.folder / f"token-{time.monotonic_ns()}"
+            token.write_text("")
+
+    def open(self):
+        (self.folder / "open").write_text("")
 
 
 def stored(out):
@@ -448,29 +483,22 @@ def children(pid):
 
 @pytest.mark.cluster
 def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
-    path = write_study(tmp_path, SLOW_STUDY, fmu_path)
-    out = tmp_path / "out"
-    first = subprocess.Popen(
-        AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    wait_for(lambda: len(stored(out)) >= 2, "two stored scenarios")
-    first.send_signal(signal.SIGINT)
-    _, err = first.communicate(timeout=60)
+    path = write_study(tmp_path, GATED_STUDY, fmu_path)
+    out, gate = tmp_path / "out", Gate(tmp_path)
+    study = AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots", "--runner", str(gate.runner)]
+    first = subprocess.Popen(study, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    gate.let_through(2)
+    wait_for(lambda: len(stored(out)) == 2, "two stored scenarios")
+    first.send_signal(signal.SIGINT)  # two more wait at the gate, two are queued
+    _, err = first.communicate(timeout=120)
     assert first.returncode == 130 and "run again to resume" in err, err
     before = stored(out)
-    assert 2 <= len(before) < 6
-    second = subprocess.run(
-        AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    assert len(before) == 2
+    gate.open()
+    second = subprocess.run(study, capture_output=True, text=True, timeout=300)
     assert second.returncode == 0, second.stderr
     ran = [line for line in second.stderr.splitlines() if line.startswith("[finished")]
-    assert len(ran) == 6 - len(before), "only the missing scenarios ran"
+    assert len(ran) == 4, "only the missing scenarios ran"
     after = stored(out)
     assert len(after) == 6 and all(after[name] == mtime for name, mtime in before.items())
     third = subprocess.run(
@@ -481,26 +509,28 @@ def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
 
 @pytest.mark.cluster
 def test_a_killed_worker_loses_nothing(tmp_path, fmu_path):
-    path = write_study(tmp_path, SLOW_STUDY, fmu_path)
-    out = tmp_path / "out"
+    path = write_study(tmp_path, GATED_STUDY, fmu_path)
+    out, gate = tmp_path / "out", Gate(tmp_path)
     study = subprocess.Popen(
-        AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots"],
+        AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots", "--runner", str(gate.runner)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
-    wait_for(lambda: len(stored(out)) >= 1, "a stored scenario")
+    gate.let_through(1)
+    wait_for(lambda: len(stored(out)) == 1, "a stored scenario")
 
-    def busy_worker():
-        """A worker process whose aem-run is running a scenario now, or None. Processes end
-        while they are looked at (a scenario finishes): such a one is simply not found."""
+    def waiting_worker():
+        """A worker process whose gated aem-run waits at the gate now, or None (a process that
+        ends while it is looked at is simply not found)."""
         for worker in children(study.pid):
             if "aem-run" not in cmdline(worker) and any("aem-run" in cmdline(c) for c in children(worker)):
                 return worker
         return None
 
-    worker = wait_for(busy_worker, "a worker running aem-run")
+    worker = wait_for(waiting_worker, "a worker running aem-run")
     os.kill(worker, signal.SIGKILL)  # the worker process running a scenario, mid-scenario
+    gate.open()
     stdout, stderr = study.communicate(timeout=300)
     assert study.returncode == 0, stderr
     records = [json.loads(p.read_text()) for p in (out / "scenarios").glob("*.json")]

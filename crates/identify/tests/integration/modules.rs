@@ -124,7 +124,11 @@ fn three_modules_in_one_log_are_fitted_separately_with_their_spread() {
     let file = identify::parameter_file(&fits);
     let text = serde_json::to_string_pretty(&file).unwrap();
     let back: ParameterFile = serde_json::from_str(&text).unwrap();
-    assert!(back.module(None).unwrap_err().contains("3 modules"));
+    assert!(back
+        .module(None)
+        .unwrap_err()
+        .to_string()
+        .contains("3 modules"));
     for (i, id) in ids.iter().enumerate() {
         let entry = back.module(Some(id)).unwrap();
         let names: Vec<(&str, &str)> = entry
