@@ -2,7 +2,7 @@
 # The fast lane, for every change (about 2 to 3 minutes on two cores after a first build):
 # formatting and lint of the Rust and the Python, the model's and the identification's unit
 # tests, the linux64 FMU rebuilt natively where the sources changed, and the pytest tests that
-# are not marked slow, wine, cosim or cluster (those run in scripts/test.sh, the full
+# are not marked slow, wine, cosim, cluster or serial (those run in scripts/test.sh, the full
 # suite). Needs the set-up of scripts/demo.sh or scripts/setup.sh (a .venv with the package).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,5 +22,5 @@ phase cargo clippy --quiet --workspace --all-targets --release -- -D warnings
 phase cargo test --quiet -p aem-model -p aem-identify --lib   # debug assertions and overflow checks on
 phase .venv/bin/python packaging/package.py --platforms linux64 --native
 phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup -p no:cacheprovider \
-  -m "not slow and not wine and not cosim and not cluster"
+  -m "not slow and not wine and not cosim and not cluster and not serial"
 echo "check.sh: passed in $SECONDS s" >&2

@@ -32,7 +32,8 @@ mkdir -p target
 nice -n 19 bash scripts/fuzz.sh build >target/fuzz-build.log 2>&1 &
 fuzz_build=$!
 trap 'kill $fuzz_build 2>/dev/null || true' EXIT
-phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup --durations=20
+phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup -m "not serial" --durations=20
+phase .venv/bin/python -m pytest tests/python -q -m serial
 fuzz_built() { wait $fuzz_build || { cat target/fuzz-build.log >&2; return 1; }; }
 phase fuzz_built
 # 5 s a target here: every harness builds and finds nothing in reach; the long runs (release

@@ -238,6 +238,7 @@ def test_the_linux_wheel_is_tagged_manylinux2014_and_holds_the_linux_commands():
         assert f"Provides-Extra: {extra}" in metadata.splitlines(), extra
 
 
+@pytest.mark.serial
 def test_the_sdist_builds_a_working_wheel_from_its_own_files(tmp_path):
     """Unpacked outside the checkout and built there (cargo, cargo-zigbuild and this venv's
     hatchling). The checkout's cargo target folder is the build's CARGO_TARGET_DIR, as a cache:

@@ -404,9 +404,11 @@ seed = [1, 2, 3, 4, 5, 6]
 
 GATED_RUNNER = """#!/bin/sh
 # aem-run behind a gate the test controls: each run waits for a token in GATE (taken with an
-# atomic rename, so one token lets exactly one run through) or for GATE/open; it gives up when
-# its worker has gone (so that nothing outlives a stopped study).
+# atomic rename, so one token lets exactly one run through) or for GATE/open; it ends as a
+# scenario that fails at GATE/close (as running scenarios end while a stopped study closes its
+# cluster) or when its worker has gone (so that nothing outlives a study).
 while :; do
+  [ -e "{gate}/close" ] && exit 3
   [ -e "{gate}/open" ] && exec "{runner}" "$@"
   for token in "{gate}"/token-*; do
     mv "$token" "{gate}/taken-$$" 2>/dev/null && exec "{runner}" "$@"
@@ -436,6 +438,13 @@ class Gate:
 
     def open(self):
         (self.folder / "open").write_text("")
+
+    def close(self):
+        (self.folder / "close").write_text("")
+
+    def reopen(self):
+        (self.folder / "close").unlink()
+        self.open()
 
 
 def stored(out):
@@ -490,11 +499,12 @@ def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
     gate.let_through(2)
     wait_for(lambda: len(stored(out)) == 2, "two stored scenarios")
     first.send_signal(signal.SIGINT)  # two more wait at the gate, two are queued
+    gate.close()  # the two waiting end, as running scenarios do, and the cluster closes
     _, err = first.communicate(timeout=120)
     assert first.returncode == 130 and "run again to resume" in err, err
     before = stored(out)
     assert len(before) == 2
-    gate.open()
+    gate.reopen()
     second = subprocess.run(study, capture_output=True, text=True, timeout=300)
     assert second.returncode == 0, second.stderr
     ran = [line for line in second.stderr.splitlines() if line.startswith("[finished")]
