@@ -447,6 +447,20 @@ class Gate:
         self.open()
 
 
+def start(argv):
+    """aem-study started in a process group of its own (its Dask workers and their aem-run
+    with it), so that `end_group` leaves nothing behind when a test fails."""
+    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+
+def end_group(process):
+    """Kills what is left of the process group of `process` (nothing when the test passed)."""
+    try:
+        os.killpg(process.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+
+
 def stored(out):
     folder = out / "scenarios"
     return {p.name: p.stat().st_mtime_ns for p in folder.glob("*.json")} if folder.exists() else {}
@@ -495,12 +509,15 @@ def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
     path = write_study(tmp_path, GATED_STUDY, fmu_path)
     out, gate = tmp_path / "out", Gate(tmp_path)
     study = AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots", "--runner", str(gate.runner)]
-    first = subprocess.Popen(study, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    gate.let_through(2)
-    wait_for(lambda: len(stored(out)) == 2, "two stored scenarios")
-    first.send_signal(signal.SIGINT)  # two more wait at the gate, two are queued
-    gate.close()  # the two waiting end, as running scenarios do, and the cluster closes
-    _, err = first.communicate(timeout=120)
+    first = start(study)
+    try:
+        gate.let_through(2)
+        wait_for(lambda: len(stored(out)) == 2, "two stored scenarios")
+        first.send_signal(signal.SIGINT)  # two more wait at the gate, two are queued
+        gate.close()  # the two waiting end, as running scenarios do, and the cluster closes
+        _, err = first.communicate(timeout=120)
+    finally:
+        end_group(first)
     assert first.returncode == 130 and "run again to resume" in err, err
     before = stored(out)
     assert len(before) == 2
@@ -517,16 +534,9 @@ def test_a_stopped_study_resumes_and_runs_nothing_twice(tmp_path, fmu_path):
     assert third.returncode == 0 and "[finished" not in third.stderr and stored(out) == after
 
 
-@pytest.mark.cluster
-def test_a_killed_worker_loses_nothing(tmp_path, fmu_path):
-    path = write_study(tmp_path, GATED_STUDY, fmu_path)
-    out, gate = tmp_path / "out", Gate(tmp_path)
-    study = subprocess.Popen(
-        AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots", "--runner", str(gate.runner)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+def kill_a_worker_mid_scenario(study, gate, out):
+    """Lets one scenario finish, kills a worker process whose gated aem-run waits at the gate,
+    opens the gate; the study's (stdout, stderr)."""
     gate.let_through(1)
     wait_for(lambda: len(stored(out)) == 1, "a stored scenario")
 
@@ -541,7 +551,20 @@ def test_a_killed_worker_loses_nothing(tmp_path, fmu_path):
     worker = wait_for(waiting_worker, "a worker running aem-run")
     os.kill(worker, signal.SIGKILL)  # the worker process running a scenario, mid-scenario
     gate.open()
-    stdout, stderr = study.communicate(timeout=300)
+    return study.communicate(timeout=300)
+
+
+@pytest.mark.cluster
+def test_a_killed_worker_loses_nothing(tmp_path, fmu_path):
+    path = write_study(tmp_path, GATED_STUDY, fmu_path)
+    out, gate = tmp_path / "out", Gate(tmp_path)
+    study = start(
+        AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots", "--runner", str(gate.runner)]
+    )
+    try:
+        _, stderr = kill_a_worker_mid_scenario(study, gate, out)
+    finally:
+        end_group(study)
     assert study.returncode == 0, stderr
     records = [json.loads(p.read_text()) for p in (out / "scenarios").glob("*.json")]
     assert len(records) == 6 and {r["status"] for r in records} == {"done"}
