@@ -430,11 +430,12 @@ class Gate:
         self.runner = folder / "gated-aem-run"
         self.runner.write_text(GATED_RUNNER.format(gate=self.folder, runner=RUNNER))
         self.runner.chmod(0o755)
+        self.issued = 0
 
     def let_through(self, n):
         for _ in range(n):
-            token = self.folder / f"token-{time.monotonic_ns()}"
-            token.write_text("")
+            self.issued += 1  # a name of its own for each token
+            (self.folder / f"token-{self.issued}").write_text("")
 
     def open(self):
         (self.folder / "open").write_text("")
