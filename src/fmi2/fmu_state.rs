@@ -14,7 +14,7 @@ use aem_model::hub::{Group, HubSnapshot, HubTotals};
 use aem_model::operation::UnitState;
 use aem_model::{
     CurrentState, FastReserve, ModuleState, OperatingState, Parameters, PlantSettings,
-    PlantSnapshot, ReserveSettings,
+    PlantSnapshot, ReserveSettings, ThermalParameters,
 };
 
 use super::state_machine::FmiState;
@@ -23,7 +23,7 @@ use super::variables::Inputs;
 /// The first bytes of every serialised state.
 pub const MAGIC: &[u8; 8] = b"AEMFMUST";
 /// Version of the serialised format; bump it whenever the payload changes.
-pub const FORMAT_VERSION: u32 = 6;
+pub const FORMAT_VERSION: u32 = 7;
 const SAVED_MAGIC: u64 = 0x4145_4d5f_5354_4154; // "AEM_STAT"
 const PLANT_NONE: u8 = 0;
 const PLANT_MODULE: u8 = 1;
@@ -161,10 +161,16 @@ impl SavedState {
             w.f64(x);
         }
         w.u8(r.compensation as u8);
+        w.u8(s.thermal_model as u8);
+        w.u32(s.thermal.n_cells as u32);
+        for x in thermal_values(&s.thermal) {
+            w.f64(x);
+        }
         for x in [
             self.inputs.setpoint,
             self.inputs.power_reference,
             self.inputs.frequency,
+            self.inputs.ambient_temperature,
             self.setpoint_slope,
             self.time,
             self.stop_time.unwrap_or(0.0),
@@ -201,6 +207,7 @@ impl SavedState {
                     m.current.current,
                     m.energy,
                     m.h2_produced,
+                    m.temperature,
                 ] {
                     w.f64(x);
                 }
@@ -316,11 +323,14 @@ impl SavedState {
                 ffr_duration: r.finite()?,
                 compensation: r.flag()?,
             },
+            thermal_model: r.flag()?,
+            thermal: read_thermal(&mut r)?,
         };
         let inputs = Inputs {
             setpoint: r.finite()?,
             power_reference: r.finite()?,
             frequency: r.finite()?,
+            ambient_temperature: r.finite()?,
         };
         let (setpoint_slope, time, stop) = (r.finite()?, r.finite()?, r.finite()?);
         let path_len = r.u32()? as usize;
@@ -355,7 +365,7 @@ impl SavedState {
         let plant = match r.u8()? {
             PLANT_NONE => None,
             PLANT_MODULE => {
-                let mut m = [0.0; 6];
+                let mut m = [0.0; 7];
                 for v in m.iter_mut() {
                     *v = r.finite()?;
                 }
@@ -369,6 +379,7 @@ impl SavedState {
                     current,
                     energy: m[4],
                     h2_produced: m[5],
+                    temperature: m[6],
                 }))
             }
             PLANT_HUB => Some(PlantSnapshot::Hub(read_hub(&mut r)?)),
@@ -426,6 +437,39 @@ fn parameter_values(p: &Parameters) -> [f64; 11] {
 }
 
 /// Parameters in the order of [`parameter_values`].
+/// The thermal parameters' Real values in their serialised order (nCells is written before).
+fn thermal_values(t: &ThermalParameters) -> [f64; 8] {
+    [
+        t.initial_temperature,
+        t.heat_capacity,
+        t.thermal_resistance,
+        t.cooling_setpoint,
+        t.max_cooling_power,
+        t.nominal_temperature,
+        t.voltage_temperature_coefficient,
+        t.resistance_temperature_coefficient,
+    ]
+}
+
+fn read_thermal(r: &mut Reader) -> Result<ThermalParameters, String> {
+    let n_cells = r.u32()? as i32;
+    let mut x = [0.0; 8];
+    for v in x.iter_mut() {
+        *v = r.finite()?;
+    }
+    Ok(ThermalParameters {
+        initial_temperature: x[0],
+        heat_capacity: x[1],
+        thermal_resistance: x[2],
+        cooling_setpoint: x[3],
+        max_cooling_power: x[4],
+        n_cells,
+        nominal_temperature: x[5],
+        voltage_temperature_coefficient: x[6],
+        resistance_temperature_coefficient: x[7],
+    })
+}
+
 fn read_parameters(r: &mut Reader) -> Result<Parameters, String> {
     let mut p = [0.0; 11];
     for v in p.iter_mut() {
@@ -594,14 +638,24 @@ mod tests {
             },
             energy: 1.0e6,
             h2_produced: 33.0,
+            temperature: 301.25,
         };
         let inputs = Inputs {
             setpoint: 73.0,
             power_reference: 1.5e6,
             frequency: 49.8,
+            ambient_temperature: 270.5,
         };
         let plant = Some(PlantSnapshot::Module(module));
-        let settings = PlantSettings::default();
+        let settings = PlantSettings {
+            thermal_model: true,
+            thermal: ThermalParameters {
+                heat_capacity: 12_345.0,
+                n_cells: 17,
+                ..ThermalParameters::default()
+            },
+            ..PlantSettings::default()
+        };
         SavedState::new(
             FmiState::StepComplete,
             Parameters::default(),
@@ -659,6 +713,7 @@ mod tests {
             setpoint: 0.0,
             power_reference: 20_000.0,
             frequency: 50.0,
+            ambient_temperature: 300.0,
         };
         let file = "/data/params.json".to_string();
         SavedState::new(

@@ -171,7 +171,7 @@ impl Instance {
         let sets = self.read_module_sets()?;
         let request = config.reserve.proportional(self.inputs.frequency);
         let (setpoint, power) = (self.inputs.setpoint, self.inputs.power_reference);
-        let plant = Plant::with_request(
+        let mut plant = Plant::with_request(
             self.params,
             &config,
             sets.as_deref(),
@@ -180,6 +180,9 @@ impl Instance {
             request,
         )
         .map_err(|e| e.to_string())?;
+        plant
+            .set_ambient_temperature(self.inputs.ambient_temperature)
+            .map_err(|e| e.to_string())?;
         Ok((config, plant, sets))
     }
 
@@ -399,6 +402,16 @@ impl Instance {
             if let Some(field) = field {
                 *field = *value;
             }
+        }
+        if inputs.ambient_temperature != self.inputs.ambient_temperature {
+            // An input the plant holds: checked and handed over now (coolingPower depends on it).
+            let ambient = inputs.ambient_temperature;
+            match self.plant.as_mut() {
+                Some((_, plant)) => plant.set_ambient_temperature(ambient),
+                None if ambient > 0.0 => Ok(()),
+                None => Err(aem_model::StepError::InvalidAmbientTemperature(ambient)),
+            }
+            .map_err(|e| error(format!("{e}: refused")))?;
         }
         self.params = params;
         self.settings = settings;
@@ -694,6 +707,9 @@ impl Instance {
                 .map_err(|e| invalid(e.to_string()))?;
                 plant
                     .restore(snapshot.clone())
+                    .map_err(|e| invalid(e.to_string()))?;
+                plant
+                    .set_ambient_temperature(saved.inputs.ambient_temperature)
                     .map_err(|e| invalid(e.to_string()))?;
                 Some((config, plant))
             }

@@ -15,6 +15,8 @@ pub struct Inputs {
     pub power_reference: f64,
     /// `frequency` [Hz].
     pub frequency: f64,
+    /// `ambientTemperature` [K].
+    pub ambient_temperature: f64,
 }
 
 impl Default for Inputs {
@@ -24,6 +26,7 @@ impl Default for Inputs {
             setpoint: start::SETPOINT,
             power_reference: start::POWER_REFERENCE,
             frequency: start::FREQUENCY,
+            ambient_temperature: start::AMBIENT_TEMPERATURE,
         }
     }
 }
@@ -86,12 +89,49 @@ pub fn module_parameter(var: RealVariable) -> Option<ModuleParameter> {
         NominalCurrent => Some(P::NominalCurrent),
         MinSetpoint => Some(P::MinSetpoint),
         MaxSetpoint => Some(P::MaxSetpoint),
-        Hysteresis | ColdStartTime | WarmStartTime | StartPower | StandbyPower
-        | StandbyDuration | StopDuration | ParameterSpread | Setpoint | PowerReference
-        | Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower | HubH2Flow
-        | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts | Frequency
-        | ReserveRequest | FcrNCapacity | FcrDUpCapacity | FcrDDownCapacity | FcrCapacity
-        | FfrCapacity | FfrTriggerFrequency | FfrSupportDuration => None,
+        Hysteresis
+        | ColdStartTime
+        | WarmStartTime
+        | StartPower
+        | StandbyPower
+        | StandbyDuration
+        | StopDuration
+        | ParameterSpread
+        | Setpoint
+        | PowerReference
+        | Current
+        | Voltage
+        | Power
+        | H2Flow
+        | Energy
+        | H2Produced
+        | HubPower
+        | HubH2Flow
+        | HubH2MassFlow
+        | HubEnergy
+        | HubH2Produced
+        | RunningHours
+        | Starts
+        | Frequency
+        | ReserveRequest
+        | FcrNCapacity
+        | FcrDUpCapacity
+        | FcrDDownCapacity
+        | FcrCapacity
+        | FfrCapacity
+        | FfrTriggerFrequency
+        | FfrSupportDuration
+        | InitialTemperature
+        | HeatCapacity
+        | ThermalResistance
+        | CoolingSetpoint
+        | MaxCoolingPower
+        | NominalTemperature
+        | VoltageTemperatureCoefficient
+        | ResistanceTemperatureCoefficient
+        | AmbientTemperature
+        | StackTemperature
+        | CoolingPower => None,
     }
 }
 
@@ -114,11 +154,23 @@ fn setting_mut(settings: &mut PlantSettings, var: RealVariable) -> Option<&mut f
         FfrCapacity => Some(&mut settings.reserve.ffr),
         FfrTriggerFrequency => Some(&mut settings.reserve.ffr_trigger),
         FfrSupportDuration => Some(&mut settings.reserve.ffr_duration),
+        InitialTemperature => Some(&mut settings.thermal.initial_temperature),
+        HeatCapacity => Some(&mut settings.thermal.heat_capacity),
+        ThermalResistance => Some(&mut settings.thermal.thermal_resistance),
+        CoolingSetpoint => Some(&mut settings.thermal.cooling_setpoint),
+        MaxCoolingPower => Some(&mut settings.thermal.max_cooling_power),
+        NominalTemperature => Some(&mut settings.thermal.nominal_temperature),
+        VoltageTemperatureCoefficient => {
+            Some(&mut settings.thermal.voltage_temperature_coefficient)
+        }
+        ResistanceTemperatureCoefficient => {
+            Some(&mut settings.thermal.resistance_temperature_coefficient)
+        }
         Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance
         | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Setpoint
         | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower
         | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts
-        | Frequency | ReserveRequest => None,
+        | Frequency | ReserveRequest | AmbientTemperature | StackTemperature | CoolingPower => None,
     }
 }
 
@@ -129,14 +181,57 @@ pub fn real_input_mut(inputs: &mut Inputs, var: RealVariable) -> Option<&mut f64
         Setpoint => Some(&mut inputs.setpoint),
         PowerReference => Some(&mut inputs.power_reference),
         Frequency => Some(&mut inputs.frequency),
-        Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower | HubH2Flow
-        | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts | Gain | TauZero
-        | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance
-        | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Hysteresis
-        | ColdStartTime | WarmStartTime | StartPower | StandbyPower | StandbyDuration
-        | StopDuration | ParameterSpread | ReserveRequest | FcrNCapacity | FcrDUpCapacity
-        | FcrDDownCapacity | FcrCapacity | FfrCapacity | FfrTriggerFrequency
-        | FfrSupportDuration => None,
+        AmbientTemperature => Some(&mut inputs.ambient_temperature),
+        Current
+        | Voltage
+        | Power
+        | H2Flow
+        | Energy
+        | H2Produced
+        | HubPower
+        | HubH2Flow
+        | HubH2MassFlow
+        | HubEnergy
+        | HubH2Produced
+        | RunningHours
+        | Starts
+        | Gain
+        | TauZero
+        | TauPole1
+        | TauPole2
+        | RampUpLimit
+        | VoltageIntercept
+        | OhmicResistance
+        | H2Coefficient
+        | NominalCurrent
+        | MinSetpoint
+        | MaxSetpoint
+        | Hysteresis
+        | ColdStartTime
+        | WarmStartTime
+        | StartPower
+        | StandbyPower
+        | StandbyDuration
+        | StopDuration
+        | ParameterSpread
+        | ReserveRequest
+        | FcrNCapacity
+        | FcrDUpCapacity
+        | FcrDDownCapacity
+        | FcrCapacity
+        | FfrCapacity
+        | FfrTriggerFrequency
+        | FfrSupportDuration
+        | InitialTemperature
+        | HeatCapacity
+        | ThermalResistance
+        | CoolingSetpoint
+        | MaxCoolingPower
+        | NominalTemperature
+        | VoltageTemperatureCoefficient
+        | ResistanceTemperatureCoefficient
+        | StackTemperature
+        | CoolingPower => None,
     }
 }
 
@@ -159,12 +254,46 @@ pub fn real_output(var: RealVariable, plant: &Plant, reserve_request: f64) -> Op
         RunningHours => Some(plant.running_hours()),
         Starts => Some(plant.starts()),
         ReserveRequest => Some(reserve_request),
-        Setpoint | PowerReference | Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit
-        | VoltageIntercept | OhmicResistance | H2Coefficient | NominalCurrent | MinSetpoint
-        | MaxSetpoint | Hysteresis | ColdStartTime | WarmStartTime | StartPower | StandbyPower
-        | StandbyDuration | StopDuration | ParameterSpread | Frequency | FcrNCapacity
-        | FcrDUpCapacity | FcrDDownCapacity | FcrCapacity | FfrCapacity | FfrTriggerFrequency
-        | FfrSupportDuration => None,
+        StackTemperature => Some(plant.stack_temperature()),
+        CoolingPower => Some(plant.cooling_power()),
+        Setpoint
+        | PowerReference
+        | Gain
+        | TauZero
+        | TauPole1
+        | TauPole2
+        | RampUpLimit
+        | VoltageIntercept
+        | OhmicResistance
+        | H2Coefficient
+        | NominalCurrent
+        | MinSetpoint
+        | MaxSetpoint
+        | Hysteresis
+        | ColdStartTime
+        | WarmStartTime
+        | StartPower
+        | StandbyPower
+        | StandbyDuration
+        | StopDuration
+        | ParameterSpread
+        | Frequency
+        | FcrNCapacity
+        | FcrDUpCapacity
+        | FcrDDownCapacity
+        | FcrCapacity
+        | FfrCapacity
+        | FfrTriggerFrequency
+        | FfrSupportDuration
+        | InitialTemperature
+        | HeatCapacity
+        | ThermalResistance
+        | CoolingSetpoint
+        | MaxCoolingPower
+        | NominalTemperature
+        | VoltageTemperatureCoefficient
+        | ResistanceTemperatureCoefficient
+        | AmbientTemperature => None,
     }
 }
 
@@ -179,6 +308,7 @@ pub fn integer_parameter_mut(
         Dispatch => Some(&mut settings.dispatch),
         BelowMinimum => Some(&mut settings.below_minimum),
         SpreadSeed => Some(&mut settings.spread_seed),
+        NCells => Some(&mut settings.thermal.n_cells),
         OperatingState | ModulesIdle | ModulesStarting | ModulesRunning | ModulesStandby
         | ModulesStopping => None,
     }
@@ -195,7 +325,7 @@ pub fn integer_output(var: IntegerVariable, plant: &Plant) -> Option<i32> {
         V::ModulesRunning => Some(plant.count_in(Steady)),
         V::ModulesStandby => Some(plant.count_in(Standby)),
         V::ModulesStopping => Some(plant.count_in(Blowdown)),
-        V::NModules | V::Dispatch | V::BelowMinimum | V::SpreadSeed => None,
+        V::NModules | V::Dispatch | V::BelowMinimum | V::SpreadSeed | V::NCells => None,
     }
 }
 
@@ -215,6 +345,7 @@ pub fn boolean_parameter_mut(
     match var {
         BooleanVariable::PowerInput => Some(&mut settings.power_input),
         BooleanVariable::ReserveCompensation => Some(&mut settings.reserve.compensation),
+        BooleanVariable::ThermalModel => Some(&mut settings.thermal_model),
     }
 }
 
@@ -341,9 +472,10 @@ mod tests {
         if option_env!("AEM_MODEL_DESCRIPTION").is_some_and(|path| !path.is_empty()) {
             return;
         }
-        let (params, settings, _) = start_values();
+        let (params, settings, inputs) = start_values();
         assert_eq!(params, Parameters::default());
         assert_eq!(settings, PlantSettings::default());
+        assert_eq!(inputs.ambient_temperature, aem_model::plant::AMBIENT_START);
     }
 
     #[test]

@@ -236,6 +236,7 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
                         current: zero,
                         energy: 0.0,
                         h2_produced: 0.0,
+                        ..*m.state()
                     });
                     module = Some(m);
                 }

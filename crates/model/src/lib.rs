@@ -11,6 +11,8 @@
 //! - [`hub`]: N modules simulated as groups; [`dispatch`]: who runs at which setpoint;
 //!   [`lanes`]: modules with parameters of their own, stepped four at a time.
 //! - [`spread`]: seeded per-module parameter sets.
+//! - [`thermal`]: the stack temperature (optional): heat balance, thermostat, exact or
+//!   error-controlled steps.
 //! - [`operation`]: a module's operating states (idle, curve, steady, standby, blowdown).
 //! - [`plant`]: what an FMU instance simulates: one module or a hub, with its settings;
 //!   [`events`]: what it reports while it runs (window excursions, reserve shortfalls).
@@ -21,6 +23,7 @@
 // `!(x > 0.0)` is used on purpose: it is true for NaN, which must be refused too.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+mod current_path;
 pub mod dispatch;
 pub mod dynamics;
 pub mod events;
@@ -36,6 +39,7 @@ mod roots;
 mod select;
 mod snapshot_error;
 pub mod spread;
+pub mod thermal;
 
 pub use dispatch::{Demand, DispatchPolicy};
 pub use dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
@@ -47,6 +51,7 @@ pub use parameters::{ModuleParameter, ParameterError, Parameters};
 pub use plant::{Plant, PlantConfig, PlantSettings, PlantSnapshot, ReserveStep};
 pub use reserve::{FastReserve, FrequencyResponse, ReserveSettings};
 pub use snapshot_error::SnapshotError;
+pub use thermal::{HeatBalance, ThermalParameters};
 
 /// A number for messages: plain where that is short, scientific otherwise (1e306, not 307 digits).
 pub fn shown(x: f64) -> String {

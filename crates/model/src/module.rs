@@ -7,12 +7,19 @@
 //! - Hydrogen since the start: N = c·∫I dt / 3600 [Nl]
 //!
 //! The integrals come from the exact current integrals of [`CurrentDynamics::advance`].
+//!
+//! With the stack temperature on ([`Module::with_thermal`]) the voltage is
+//! V = V0 + kV·(T − Tn) + (R + kR·(T − Tn))·I, so the energy gains
+//! kV·∫(T − Tn)·I dt + kR·∫(T − Tn)·I² dt from the temperature's step ([`crate::thermal`]).
 
 use std::fmt;
 
+use super::current_path::{HeldSetpoint, LinearSetpoint};
 use super::dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
 use super::parameters::{ParameterError, Parameters};
 use super::shown;
+use super::thermal::step::{self as thermal_step, CurrentPath, ThermalError, ThermalStep};
+use super::thermal::{HeatBalance, ThermalParameters};
 
 const SECONDS_PER_HOUR: f64 = 3600.0;
 
@@ -27,6 +34,8 @@ pub struct ModuleState {
     pub energy: f64,
     /// Hydrogen produced since the start [Nl].
     pub h2_produced: f64,
+    /// Stack temperature [K] (the polarisation curve's, Tn, without the thermal model).
+    pub temperature: f64,
 }
 
 /// A request the model refuses; the module is left unchanged.
@@ -42,6 +51,10 @@ pub enum StepError {
     SlopeNotSupported(f64),
     /// A step of this size [s] would take the totals past the largest representable number.
     Overflow(f64),
+    /// The ambient temperature [K] is not a finite number > 0.
+    InvalidAmbientTemperature(f64),
+    /// The stack temperature's step failed.
+    Thermal(ThermalError),
 }
 
 impl fmt::Display for StepError {
@@ -56,11 +69,19 @@ impl fmt::Display for StepError {
                 shown(*v)
             ),
             StepError::Overflow(h) => write!(f, "a step of {} s would overflow the energy or hydrogen totals", shown(*h)),
+            StepError::InvalidAmbientTemperature(t) => write!(f, "ambientTemperature = {} K must be a finite number > 0", shown(*t)),
+            StepError::Thermal(e) => write!(f, "{e}"),
         }
     }
 }
 
 impl std::error::Error for StepError {}
+
+impl From<ThermalError> for StepError {
+    fn from(e: ThermalError) -> Self {
+        StepError::Thermal(e)
+    }
+}
 
 /// What one step did.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,6 +101,8 @@ pub struct Module {
     factors: StepFactors,
     /// c / 3600: hydrogen per ampere-second [Nl/(A·s)].
     h2_per_coulomb: f64,
+    /// The stack's heat balance, if the temperature is modelled.
+    thermal: Option<HeatBalance>,
 }
 
 impl Module {
@@ -103,10 +126,65 @@ impl Module {
                 current,
                 energy: 0.0,
                 h2_produced: 0.0,
+                temperature: ThermalParameters::default().nominal_temperature,
             },
             factors: StepFactors::default(),
             h2_per_coulomb: params.h2_coefficient / SECONDS_PER_HOUR,
+            thermal: None,
         })
+    }
+
+    /// [`Module::new`] with the stack temperature modelled: `thermal` parameters, ambient
+    /// temperature `ambient` [K] (held until [`Module::set_ambient_temperature`]).
+    pub fn with_thermal(
+        params: Parameters,
+        thermal: ThermalParameters,
+        ambient: f64,
+        setpoint: f64,
+    ) -> Result<Self, ParameterError> {
+        thermal.validate()?;
+        check_ambient(ambient).map_err(|_| ParameterError {
+            name: "ambientTemperature",
+            value: ambient,
+            requirement: "must be a finite number > 0 K".into(),
+        })?;
+        let mut module = Module::new(params, setpoint)?;
+        module.state.temperature = thermal.initial_temperature;
+        module.thermal = Some(HeatBalance {
+            thermal,
+            voltage_intercept: params.voltage_intercept,
+            ohmic_resistance: params.ohmic_resistance,
+            ambient,
+        });
+        Ok(module)
+    }
+
+    /// Sets the ambient temperature [K] for the following steps (thermal model only; without
+    /// it the value is checked and otherwise has no effect).
+    pub fn set_ambient_temperature(&mut self, ambient: f64) -> Result<(), StepError> {
+        check_ambient(ambient)?;
+        if let Some(balance) = &mut self.thermal {
+            balance.ambient = ambient;
+        }
+        Ok(())
+    }
+
+    /// The heat balance, if the temperature is modelled.
+    pub fn heat_balance(&self) -> Option<&HeatBalance> {
+        self.thermal.as_ref()
+    }
+
+    /// The temperature's step along `path` of length `h` [s] from the current temperature.
+    fn thermal_step(
+        &self,
+        temperature: f64,
+        path: &impl CurrentPath,
+        h: f64,
+    ) -> Result<Option<ThermalStep>, StepError> {
+        match &self.thermal {
+            None => Ok(None),
+            Some(balance) => Ok(Some(thermal_step::advance(balance, temperature, path, h)?)),
+        }
     }
 
     /// Advances by `h` seconds with `setpoint` [%] held over the step (clamped to the window).
@@ -120,8 +198,17 @@ impl Module {
         }
         let u = self.params.clamp_setpoint(setpoint);
         let mut current = self.state.current;
+        let heat = self.thermal_step(
+            self.state.temperature,
+            &HeldSetpoint {
+                dynamics: &self.dynamics,
+                start: current,
+                setpoint: u,
+            },
+            h,
+        )?;
         let ints = self.dynamics.advance(&mut current, u, h, &mut self.factors);
-        self.commit(current, ints, h)?;
+        self.commit(current, ints, heat.as_ref(), h)?;
         Ok(StepReport {
             applied_setpoint: u,
             ramp_time: ints.ramp_time,
@@ -165,23 +252,37 @@ impl Module {
         cuts[n] = h;
         let mut current = self.state.current;
         let (mut charge, mut current_squared, mut ramp_time) = (0.0, 0.0, 0.0);
+        let mut heat: Option<ThermalStep> = None;
         for w in cuts[..=n].windows(2) {
             let (t0, t1) = (w[0], w[1]);
             if t1 <= t0 {
                 continue;
             }
             let middle = setpoint + slope * 0.5 * (t0 + t1);
+            let temperature = heat.map_or(self.state.temperature, |q| q.temperature);
             let ints = if middle > lo && middle < hi {
                 let u0 = self.params.clamp_setpoint(setpoint + slope * t0);
+                let path = LinearSetpoint {
+                    dynamics: &self.dynamics,
+                    start: current,
+                    setpoint: u0,
+                    slope,
+                };
+                let piece = self.thermal_step(temperature, &path, t1 - t0)?;
+                heat = summed(heat, piece);
                 self.dynamics
                     .advance_linear(&mut current, u0, slope, t1 - t0)
             } else {
-                self.dynamics.advance(
-                    &mut current,
-                    self.params.clamp_setpoint(middle),
-                    t1 - t0,
-                    &mut self.factors,
-                )
+                let u = self.params.clamp_setpoint(middle);
+                let path = HeldSetpoint {
+                    dynamics: &self.dynamics,
+                    start: current,
+                    setpoint: u,
+                };
+                let piece = self.thermal_step(temperature, &path, t1 - t0)?;
+                heat = summed(heat, piece);
+                self.dynamics
+                    .advance(&mut current, u, t1 - t0, &mut self.factors)
             };
             charge += ints.charge;
             current_squared += ints.current_squared;
@@ -194,6 +295,7 @@ impl Module {
                 current_squared,
                 ramp_time,
             },
+            heat.as_ref(),
             h,
         )?;
         Ok(StepReport {
@@ -208,12 +310,20 @@ impl Module {
         &mut self,
         current: CurrentState,
         ints: CurrentIntegrals,
+        heat: Option<&ThermalStep>,
         h: f64,
     ) -> Result<(), StepError> {
         let p = &self.params;
-        let energy = self.state.energy
+        let mut energy = self.state.energy
             + p.voltage_intercept * ints.charge
             + p.ohmic_resistance * ints.current_squared;
+        let mut temperature = self.state.temperature;
+        if let (Some(q), Some(balance)) = (heat, &self.thermal) {
+            let t = &balance.thermal;
+            energy += t.voltage_temperature_coefficient * q.heat_charge
+                + t.resistance_temperature_coefficient * q.heat_squared;
+            temperature = q.temperature;
+        }
         let h2_produced = self.state.h2_produced + self.h2_per_coulomb * ints.charge;
         let time = self.state.time + h;
         let states_finite =
@@ -226,6 +336,7 @@ impl Module {
             current,
             energy,
             h2_produced,
+            temperature,
         };
         Ok(())
     }
@@ -255,9 +366,25 @@ impl Module {
         self.state.current.current
     }
 
-    /// Stack voltage V = V0 + R·I [V].
+    /// Stack voltage V = V0 + R·I [V]; with the thermal model
+    /// V = V0 + kV·(T − Tn) + (R + kR·(T − Tn))·I.
     pub fn voltage(&self) -> f64 {
-        self.params.voltage_intercept + self.params.ohmic_resistance * self.current()
+        match &self.thermal {
+            None => self.params.voltage_intercept + self.params.ohmic_resistance * self.current(),
+            Some(balance) => balance.voltage(self.state.temperature, self.current()),
+        }
+    }
+
+    /// Stack temperature T [K] (Tn without the thermal model).
+    pub fn temperature(&self) -> f64 {
+        self.state.temperature
+    }
+
+    /// Heat the cooling removes now, Qc [W] (0 without the thermal model).
+    pub fn cooling_power(&self) -> f64 {
+        self.thermal.as_ref().map_or(0.0, |balance| {
+            balance.cooling_power(self.state.temperature, self.current())
+        })
     }
 
     /// DC power P = V·I [W].
@@ -278,6 +405,30 @@ impl Module {
     /// Hydrogen produced since the start [Nl].
     pub fn h2_produced(&self) -> f64 {
         self.state.h2_produced
+    }
+}
+
+/// Refuses an ambient temperature that is not a finite number > 0 K.
+fn check_ambient(ambient: f64) -> Result<(), StepError> {
+    if ambient.is_finite() && ambient > 0.0 {
+        Ok(())
+    } else {
+        Err(StepError::InvalidAmbientTemperature(ambient))
+    }
+}
+
+/// Two consecutive pieces of the temperature's step as one.
+fn summed(first: Option<ThermalStep>, second: Option<ThermalStep>) -> Option<ThermalStep> {
+    match (first, second) {
+        (Some(a), Some(b)) => Some(ThermalStep {
+            temperature: b.temperature,
+            temperature_integral: a.temperature_integral + b.temperature_integral,
+            heat_charge: a.heat_charge + b.heat_charge,
+            heat_squared: a.heat_squared + b.heat_squared,
+            cooling_energy: a.cooling_energy + b.cooling_energy,
+            regime_changes: a.regime_changes + b.regime_changes,
+        }),
+        (a, b) => b.or(a),
     }
 }
 
@@ -384,5 +535,123 @@ mod tests {
         assert!(m.step(80.0, f64::NAN).is_err());
         assert!(matches!(m.step(80.0, 1e307), Err(StepError::Overflow(_))));
         assert_eq!(*m.state(), before);
+    }
+    #[test]
+    fn the_thermal_model_without_temperature_coefficients_changes_nothing_else() {
+        use crate::thermal::ThermalParameters;
+        let flat = ThermalParameters {
+            voltage_temperature_coefficient: 0.0,
+            resistance_temperature_coefficient: 0.0,
+            ..ThermalParameters::default()
+        };
+        let mut plain = Module::new(Parameters::default(), 70.0).unwrap();
+        let mut warm = Module::with_thermal(Parameters::default(), flat, 288.15, 70.0).unwrap();
+        for (k, u) in [95.0, 60.0, 80.0, 100.0].iter().enumerate() {
+            plain.step(*u, 7.0 + k as f64).unwrap();
+            warm.step(*u, 7.0 + k as f64).unwrap();
+            plain.step_interpolated(*u, -0.5, 11.0).unwrap();
+            warm.step_interpolated(*u, -0.5, 11.0).unwrap();
+        }
+        let (a, b) = (plain.state(), warm.state());
+        assert_eq!(
+            (a.current, a.energy, a.h2_produced),
+            (b.current, b.energy, b.h2_produced)
+        );
+        assert_eq!(plain.voltage(), warm.voltage());
+        assert!(b.temperature > 288.15, "the stack warms: {}", b.temperature);
+        assert_eq!(a.temperature, 328.15, "without the model: Tn");
+    }
+
+    #[test]
+    fn a_cold_stack_draws_more_and_the_voltage_falls_as_it_warms() {
+        use crate::thermal::ThermalParameters;
+        let mut m = Module::with_thermal(
+            Parameters::default(),
+            ThermalParameters::default(),
+            288.15,
+            100.0,
+        )
+        .unwrap();
+        let cold = m.voltage();
+        // V at 15 °C from the curve written out: kV, kR negative, ΔT = −40 K.
+        let expected = 35.75 - 0.046 * -40.0 + (0.1529 - 0.0015 * -40.0) * 53.4;
+        assert!((cold - expected).abs() < 1e-12, "{cold} vs {expected}");
+        let mut last = cold;
+        for _ in 0..12 {
+            m.step(100.0, 600.0).unwrap();
+            assert!(m.voltage() <= last);
+            last = m.voltage();
+        }
+        assert_eq!(
+            m.temperature(),
+            328.15,
+            "held at the setpoint after two hours"
+        );
+        assert!(m.cooling_power() > 0.0);
+        let warm = 35.75 + 0.1529 * 53.4;
+        assert!((m.voltage() - warm).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_stack_temperature_does_not_depend_on_the_step_size() {
+        use crate::thermal::ThermalParameters;
+        let thermal = ThermalParameters {
+            heat_capacity: 200.0, // a 40 s time constant: it follows the current's transients
+            ..ThermalParameters::default()
+        };
+        let program = |t: f64| {
+            if ((t / 300.0) as u64).is_multiple_of(2) {
+                100.0
+            } else {
+                60.0
+            }
+        };
+        let run = |h: f64| {
+            let mut m = Module::with_thermal(Parameters::default(), thermal, 268.15, 60.0).unwrap();
+            let mut at = vec![];
+            let per = (300.0 / h).round() as usize;
+            for k in 0..8 {
+                for _ in 0..per {
+                    m.step(program(k as f64 * 300.0), h).unwrap();
+                }
+                at.push((m.temperature(), m.energy()));
+            }
+            at
+        };
+        let reference = run(300.0);
+        for h in [0.01, 1.0, 30.0] {
+            for ((t, e), (tr, er)) in run(h).iter().zip(&reference) {
+                assert!((t - tr).abs() < 1e-6, "h = {h}: {t} K vs {tr} K");
+                assert!((e - er).abs() < 1e-9 * er, "h = {h}: {e} J vs {er} J");
+            }
+        }
+    }
+
+    #[test]
+    fn a_bad_ambient_temperature_is_refused_and_changes_nothing() {
+        use crate::thermal::ThermalParameters;
+        let mut m = Module::with_thermal(
+            Parameters::default(),
+            ThermalParameters::default(),
+            288.15,
+            80.0,
+        )
+        .unwrap();
+        m.step(90.0, 10.0).unwrap();
+        let before = (*m.state(), m.heat_balance().copied());
+        for bad in [f64::NAN, 0.0, -5.0, f64::INFINITY] {
+            assert!(matches!(
+                m.set_ambient_temperature(bad),
+                Err(StepError::InvalidAmbientTemperature(_))
+            ));
+        }
+        assert_eq!((*m.state(), m.heat_balance().copied()), before);
+        assert!(Module::with_thermal(
+            Parameters::default(),
+            ThermalParameters::default(),
+            f64::NAN,
+            80.0
+        )
+        .is_err());
     }
 }

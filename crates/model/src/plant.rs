@@ -25,8 +25,13 @@ use super::parameters::{ParameterError, Parameters};
 use super::reserve::{FrequencyResponse, ReserveSettings};
 use super::snapshot_error::SnapshotError;
 use super::spread::spread_parameters;
+use super::thermal::ThermalParameters;
 
 const SECONDS_PER_HOUR: f64 = 3600.0;
+
+/// Ambient temperature a plant starts with until [`Plant::set_ambient_temperature`] [K]
+/// (15 °C, the FMU's start value of `ambientTemperature`).
+pub const AMBIENT_START: f64 = 288.15;
 
 /// Most modules with individual parameter sets (parameterSpread > 0): each set costs memory.
 pub const MAX_INDIVIDUAL_MODULES: i32 = 1_000_000;
@@ -62,6 +67,10 @@ pub struct PlantSettings {
     pub spread_seed: i32,
     /// The frequency reserves offered and the compensation.
     pub reserve: ReserveSettings,
+    /// thermalModel: the stack temperature is modelled.
+    pub thermal_model: bool,
+    /// The stack's thermal parameters (used with `thermal_model`).
+    pub thermal: ThermalParameters,
 }
 
 impl Default for PlantSettings {
@@ -84,6 +93,8 @@ impl Default for PlantSettings {
             parameter_spread: 0.0,
             spread_seed: 1,
             reserve: ReserveSettings::default(),
+            thermal_model: false,
+            thermal: ThermalParameters::default(),
         }
     }
 }
@@ -101,6 +112,8 @@ pub struct PlantConfig {
     pub spread_seed: u64,
     /// The frequency reserves offered (validated).
     pub reserve: ReserveSettings,
+    /// The stack's thermal parameters if its temperature is modelled (validated).
+    pub thermal: Option<ThermalParameters>,
 }
 
 impl PlantSettings {
@@ -145,12 +158,31 @@ impl PlantSettings {
         };
         super::hub::validate(&hub)?;
         self.reserve.validate()?;
-        Ok(PlantConfig {
+        let config = PlantConfig {
             hub,
             power_input: self.power_input,
             parameter_spread: spread,
             spread_seed: self.spread_seed as u32 as u64,
             reserve: self.reserve,
+            thermal: None,
+        };
+        if !self.thermal_model {
+            return Ok(config);
+        }
+        self.thermal.validate()?;
+        if !config.is_single_module() {
+            return Err(ParameterError {
+                name: "thermalModel",
+                value: 1.0,
+                requirement: "the stack temperature is modelled for one module that never stops \
+                              (nModules = 1, belowMinimum = stayAtMinimum, powerInput = false, \
+                              parameterSpread = 0, no reserves): a hub does not model it yet"
+                    .into(),
+            });
+        }
+        Ok(PlantConfig {
+            thermal: Some(self.thermal),
+            ..config
         })
     }
 }
@@ -221,6 +253,23 @@ impl Plant {
         setpoint: f64,
         power_reference: f64,
     ) -> Result<Self, ParameterError> {
+        if let Some(thermal) = config.thermal {
+            if module_sets.is_some() {
+                return Err(ParameterError {
+                    name: "thermalModel",
+                    value: 1.0,
+                    requirement:
+                        "the stack temperature is not modelled with a moduleParameterFile yet"
+                            .into(),
+                });
+            }
+            return Ok(Plant::Module(Module::with_thermal(
+                params,
+                thermal,
+                AMBIENT_START,
+                setpoint,
+            )?));
+        }
         if config.is_single_module() && module_sets.is_none() {
             return Ok(Plant::Module(Module::new(params, setpoint)?));
         }
@@ -570,6 +619,33 @@ impl Plant {
         match self {
             Plant::Module(_) => 0.0,
             Plant::Hub(hub, _) => hub.totals().starts as f64,
+        }
+    }
+
+    /// Stack temperature [K]: the module's with the thermal model, else the polarisation
+    /// curve's (Table I: 55 °C).
+    pub fn stack_temperature(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.temperature(),
+            Plant::Hub(..) => ThermalParameters::default().nominal_temperature,
+        }
+    }
+
+    /// Heat the stack's cooling removes now [W] (0 without the thermal model).
+    pub fn cooling_power(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.cooling_power(),
+            Plant::Hub(..) => 0.0,
+        }
+    }
+
+    /// Sets the ambient temperature [K] for the following steps; refuses (changing nothing)
+    /// one that is not a finite number > 0.
+    pub fn set_ambient_temperature(&mut self, ambient: f64) -> Result<(), StepError> {
+        match self {
+            Plant::Module(m) => m.set_ambient_temperature(ambient),
+            Plant::Hub(..) if ambient.is_finite() && ambient > 0.0 => Ok(()),
+            Plant::Hub(..) => Err(StepError::InvalidAmbientTemperature(ambient)),
         }
     }
 

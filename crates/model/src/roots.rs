@@ -59,9 +59,33 @@ pub fn monotone_root(
     x
 }
 
+/// The first point of [lo, hi] where `crossed` holds, to within a few ulps, given that it
+/// does not hold at `lo` and holds at `hi` (and, between them, changes once): bisection.
+pub fn first_crossing(crossed: impl Fn(f64) -> bool, lo: f64, hi: f64) -> f64 {
+    let (mut a, mut b) = (lo, hi);
+    loop {
+        let mid = 0.5 * (a + b);
+        if !(mid > a && mid < b) {
+            return b;
+        }
+        if crossed(mid) {
+            b = mid;
+        } else {
+            a = mid;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::monotone_root;
+    use super::{first_crossing, monotone_root};
+
+    #[test]
+    fn bisection_finds_the_first_crossing_to_the_ulp() {
+        let x = first_crossing(|t| t * t >= 2.0, 0.0, 2.0);
+        assert!(x * x >= 2.0);
+        assert!((x - 2f64.sqrt()).abs() <= 2.0 * f64::EPSILON * 2f64.sqrt());
+    }
 
     #[test]
     fn finds_roots_of_monotone_functions() {

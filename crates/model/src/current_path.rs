@@ -1,0 +1,70 @@
+//! The stack current over one step as a function of time, for what is integrated along it
+//! (the stack temperature): the exact current of [`CurrentDynamics`] from the step's start.
+
+use super::dynamics::{CurrentDynamics, CurrentState, StepFactors};
+use super::thermal::step::CurrentPath;
+
+/// Relative distance from the steady state [1] below which the current counts as constant.
+const STEADY: f64 = 1e-12;
+
+/// The current from `start` with the setpoint `setpoint` [%] held.
+pub struct HeldSetpoint<'a> {
+    /// The dynamics.
+    pub dynamics: &'a CurrentDynamics,
+    /// The state at the start of the step.
+    pub start: CurrentState,
+    /// The setpoint held over the step [%].
+    pub setpoint: f64,
+}
+
+impl CurrentPath for HeldSetpoint<'_> {
+    fn current(&self, tau: f64) -> f64 {
+        if tau <= 0.0 {
+            return self.start.current;
+        }
+        let mut state = self.start;
+        self.dynamics
+            .advance(&mut state, self.setpoint, tau, &mut StepFactors::default());
+        state.current
+    }
+
+    /// At the steady state (within 1e-12 of it) the current stays where it is.
+    fn constant(&self) -> Option<f64> {
+        let steady = self.dynamics.steady_state(self.setpoint);
+        let tolerance = STEADY * steady.current.abs().max(1.0);
+        let near = |a: f64, b: f64| (a - b).abs() <= tolerance;
+        (near(self.start.z1, steady.z1)
+            && near(self.start.z2, steady.z2)
+            && near(self.start.current, steady.current))
+        .then_some(self.start.current)
+    }
+}
+
+/// The current from `start` with the setpoint rising linearly from `setpoint` [%] at `slope`
+/// [%/s] (inside the operating window).
+pub struct LinearSetpoint<'a> {
+    /// The dynamics.
+    pub dynamics: &'a CurrentDynamics,
+    /// The state at the start of the step.
+    pub start: CurrentState,
+    /// The setpoint at the start [%].
+    pub setpoint: f64,
+    /// Its rate of change [%/s].
+    pub slope: f64,
+}
+
+impl CurrentPath for LinearSetpoint<'_> {
+    fn current(&self, tau: f64) -> f64 {
+        if tau <= 0.0 {
+            return self.start.current;
+        }
+        let mut state = self.start;
+        self.dynamics
+            .advance_linear(&mut state, self.setpoint, self.slope, tau);
+        state.current
+    }
+
+    fn constant(&self) -> Option<f64> {
+        None
+    }
+}
