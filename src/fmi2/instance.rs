@@ -411,7 +411,12 @@ impl Instance {
                 None if ambient > 0.0 => Ok(()),
                 None => Err(aem_model::StepError::InvalidAmbientTemperature(ambient)),
             }
-            .map_err(|e| error(format!("{e}: refused")))?;
+            .map_err(|_| {
+                error(format!(
+                    "ambientTemperature = {} refused: must be a finite number > 0 K",
+                    shown(ambient)
+                ))
+            })?;
         }
         self.params = params;
         self.settings = settings;
