@@ -448,10 +448,24 @@ class Gate:
         self.open()
 
 
+#: Runs the command of its arguments with SIGINT at its default disposition. A test's SIGINT
+#: stands for Ctrl-C; but a suite started in the background (`cmd &` in a script) inherits
+#: SIGINT ignored, an ignored signal stays ignored across exec, and Python then installs no
+#: KeyboardInterrupt handler: the command would never see the signal.
+WITH_SIGINT = [
+    sys.executable,
+    "-c",
+    "import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); os.execv(sys.argv[1], sys.argv[1:])",
+]
+
+
 def start(argv):
     """aem-study started in a process group of its own (its Dask workers and their aem-run
-    with it), so that `end_group` leaves nothing behind when a test fails."""
-    return subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    with it), so that `end_group` leaves nothing behind when a test fails, and with SIGINT at
+    its default, so that the test's SIGINT is Ctrl-C's."""
+    return subprocess.Popen(
+        WITH_SIGINT + argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
 
 
 def end_group(process):
@@ -635,7 +649,8 @@ def test_an_existing_cluster_runs_the_study_as_the_serial_run(tmp_path, fmu_path
     address_file = tmp_path / "scheduler.json"
     quiet = dict(stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path)
     scheduler = subprocess.Popen(
-        [
+        WITH_SIGINT
+        + [
             dask,
             "scheduler",
             "--host",
@@ -652,7 +667,8 @@ def test_an_existing_cluster_runs_the_study_as_the_serial_run(tmp_path, fmu_path
     try:
         wait_for(address_file.is_file, "the scheduler's address", timeout=60)
         worker = subprocess.Popen(
-            [
+            WITH_SIGINT
+            + [
                 dask,
                 "worker",
                 "--scheduler-file",
