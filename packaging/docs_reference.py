@@ -412,6 +412,7 @@ def fmu_documentation(model_description=MODEL_DESCRIPTION, template=None):
 GUIDES = {
     "getting-started.md": "Getting started",
     "hub.md": "Hub and dispatch",
+    "model.md": "The model",
     "identification.md": "Identification",
     "studies.md": "Studies",
     "grid-services.md": "Grid services",
@@ -499,6 +500,7 @@ COMMANDS = [
         )
         for name, guide, what in [
             ("step_schedule", "getting-started.md", "the demo: one module through a setpoint step schedule"),
+            ("cold_start", "model.md", "a cold morning start with the stack temperature modelled"),
             ("step_responses", "validation.md", "the paper's step responses"),
             ("validation_day", "validation.md", "identify on ten synthetic days, validate on the eleventh"),
             ("wind_hub", "hub.md", "25 000 modules following a 64 MW wind farm"),

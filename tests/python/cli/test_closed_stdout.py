@@ -26,6 +26,7 @@ COMMANDS = [
     ["-m", f"aem_electrolyser.{m}"]
     for m in (
         "examples.step_schedule",
+        "examples.cold_start",
         "examples.step_responses",
         "examples.validation_day",
         "wind.farm",
@@ -81,6 +82,11 @@ def closed_stdout_case(name, tmp, fmu):
         return (
             ["-m", "aem_electrolyser.examples.step_schedule", "--fmu", fmu, "--out", tmp / "ss"],
             [tmp / "ss/step_schedule.csv", tmp / "ss/step_schedule.png"],
+        )
+    if name == "cold_start":
+        return (
+            ["-m", "aem_electrolyser.examples.cold_start", "--fmu", fmu, "--out", tmp / "cs"],
+            [tmp / "cs/cold_start.csv", tmp / "cs/cold_start.png"],
         )
     if name == "step_responses":
         return (
@@ -172,6 +178,7 @@ def closed_stdout_case(name, tmp, fmu):
     "name",
     [
         "step_schedule",
+        "cold_start",
         "step_responses",
         "wind_farm",
         "wind_hub",
@@ -214,6 +221,7 @@ def unwritable_case(name, blocked, tmp, fmu):
         return ["packaging/platforms.py", "aem-identify"], {"CARGO_TARGET_DIR": str(blocked)}
     return {
         "step_schedule": ["-m", "aem_electrolyser.examples.step_schedule", "--fmu", fmu, "--out", blocked / "ss"],
+        "cold_start": ["-m", "aem_electrolyser.examples.cold_start", "--fmu", fmu, "--out", blocked / "cs"],
         "step_responses": ["-m", "aem_electrolyser.examples.step_responses", "--fmu", fmu, "--out", blocked],
         "validation_day": ["-m", "aem_electrolyser.examples.validation_day", "--out", blocked],
         "wind_farm": ["-m", "aem_electrolyser.wind.farm", "--out", blocked],
@@ -235,6 +243,7 @@ def unwritable_case(name, blocked, tmp, fmu):
     "name",
     [
         "step_schedule",
+        "cold_start",
         "step_responses",
         "validation_day",
         "wind_farm",

@@ -36,6 +36,7 @@ def script(name):
 #: command -> (argv prefix, the program name its error lines start with)
 PROGRAMS = {
     "step_schedule": module("examples.step_schedule"),
+    "cold_start": module("examples.cold_start"),
     "step_responses": module("examples.step_responses"),
     "validation_day": module("examples.validation_day"),
     "wind_hub": module("examples.wind_hub"),
@@ -88,6 +89,10 @@ TABLE = [
     *fmu_cases("step_schedule"),
     case("step_schedule", "misspelled-option", ["--fum", "x", *OUT], ["unknown option --fum"], near="--fmu"),
     out_file_case("step_schedule"),
+    # --- examples.cold_start: --fmu, --out only
+    *fmu_cases("cold_start"),
+    case("cold_start", "misspelled-option", ["--fum", "x", *OUT], ["unknown option --fum"], near="--fmu"),
+    out_file_case("cold_start"),
     # --- examples.step_responses
     *fmu_cases("step_responses"),
     case("step_responses", "duration-0", ["--duration", "0", *OUT], ["--duration", "positive"]),
@@ -462,6 +467,12 @@ FAILURES = [
         ["--fmu", "{guid_fmu}", *OUT],
         "does not match the model description",
         id="step_schedule:fmu-refuses-to-instantiate",
+    ),
+    pytest.param(
+        "cold_start",
+        ["--fmu", "{guid_fmu}", *OUT],
+        "does not match the model description",
+        id="cold_start:fmu-refuses-to-instantiate",
     ),
     pytest.param(
         "step_responses",

@@ -146,3 +146,30 @@ def test_validation_day_recovers_the_truth_through_the_fmu(tmp_path):
     tool_rmse = float(re.search(r"aem-identify validate: ([0-9.]+) A", out).group(1))
     assert rmse == pytest.approx(tool_rmse, abs=6e-5)
     assert (tmp_path / "validation_day.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_the_cold_start_warms_the_stack_and_costs_what_its_voltage_says(fmu_path, tmp_path):
+    """aem_electrolyser.examples.cold_start: the stack starts at the ambient 5 °C with the voltage
+    of the curve written out at that temperature, warms, and is held at 55 °C; the paper's
+    column is V0 + R*I throughout; the extra energy is the integral of the extra power (the
+    trapezoid of the CSV's 10 s rows, within its error)."""
+    out = run_example("cold_start", "--fmu", fmu_path, "--out", tmp_path)
+    rows = read_rows(tmp_path / "cold_start.csv")
+    assert all("[" in name for name in rows[0]), "every column has its unit"
+    col = {name: np.array([float(r[name]) for r in rows]) for name in rows[0]}
+    v0, r, k = PAPER["voltageIntercept"], PAPER["ohmicResistance"], PAPER["gain"]
+    kv, kr = -0.046, -0.0015  # the FMU's start values of the two coefficients
+    i0, dt0 = col["current [A]"][0], 5.0 - 55.0
+    assert i0 == pytest.approx(k * 60.0, rel=1e-9)
+    assert col["voltage [V]"][0] == pytest.approx(v0 + kv * dt0 + (r + kr * dt0) * i0, rel=1e-9)
+    np.testing.assert_allclose(col["voltage at 55 degC [V]"], v0 + r * col["current [A]"], rtol=1e-9)  # 10 digits
+    temperature = col["stack temperature [degC]"]
+    assert np.all(np.diff(temperature) >= -1e-12), "a stack that only heats up here"
+    assert temperature[-1] == pytest.approx(55.0, abs=1e-9)
+    assert np.all(col["cooling power [W]"][temperature < 55.0 - 1e-9] == 0.0)
+    extra = col["energy [J]"][-1] - col["energy at 55 degC [J]"][-1]
+    more = col["power [W]"] - col["power at 55 degC [W]"]
+    trapezoid = float(np.sum(np.diff(col["time [s]"]) * 0.5 * (more[1:] + more[:-1])))
+    assert extra > 0.0
+    assert extra == pytest.approx(trapezoid, rel=2e-2)
+    assert "reaches 55 °C after" in out and "the cold morning costs" in out
