@@ -173,6 +173,7 @@ fn main() {
         hysteresis: 5.0,
         operation: op,
         compensation: false,
+        thermal: None,
     };
     let first = Demand::Power(reference[0]);
     let equal = Hub::new(base, config(DispatchPolicy::Equal), first);

@@ -560,15 +560,6 @@ fn cases() -> Vec<(&'static str, Stage, Box<dyn Fn(&Fmu) -> sys::fmi2Status>)> {
             }),
         ),
         (
-            "thermal model for a hub at initialisation",
-            Initialization,
-            Box::new(|f| {
-                f.set_boolean(BooleanVariable::ThermalModel, true);
-                f.set_integer(IntegerVariable::NModules, 4);
-                unsafe { fmi2ExitInitializationMode(f.c) }
-            }),
-        ),
-        (
             "ambientTemperature = NaN",
             Stepping,
             Box::new(|f| f.set(AmbientTemperature, f64::NAN)),

@@ -226,6 +226,7 @@ impl SavedState {
                         g.unit.current.z2,
                         g.unit.current.current,
                         g.running,
+                        g.unit.temperature,
                     ] {
                         w.f64(x);
                     }
@@ -492,7 +493,7 @@ fn read_parameters(r: &mut Reader) -> Result<Parameters, String> {
 
 /// A hub's groups and totals; the group count is bounded by the bytes that hold them.
 fn read_hub(r: &mut Reader) -> Result<HubSnapshot, String> {
-    const GROUP_BYTES: usize = 4 + 4 + 1 + 1 + 5 * 8 + 8;
+    const GROUP_BYTES: usize = 4 + 4 + 1 + 1 + 6 * 8 + 8;
     let n = r.u32()? as usize;
     if n.checked_mul(GROUP_BYTES)
         .is_none_or(|b| b > r.bytes.len() - r.pos)
@@ -510,7 +511,8 @@ fn read_hub(r: &mut Reader) -> Result<HubSnapshot, String> {
             .ok_or(format!(
                 "serialised state has an unknown operating state {code}"
             ))?;
-        let (timer, z1, z2, current, running) = (
+        let (timer, z1, z2, current, running, temperature) = (
+            r.finite()?,
             r.finite()?,
             r.finite()?,
             r.finite()?,
@@ -526,6 +528,7 @@ fn read_hub(r: &mut Reader) -> Result<HubSnapshot, String> {
                 state,
                 timer,
                 current: CurrentState { z1, z2, current },
+                temperature,
             },
             running,
             starts,

@@ -68,3 +68,16 @@ impl CurrentPath for LinearSetpoint<'_> {
         None
     }
 }
+
+/// No current at all (a stopped module).
+pub struct NoCurrent;
+
+impl CurrentPath for NoCurrent {
+    fn current(&self, _tau: f64) -> f64 {
+        0.0
+    }
+
+    fn constant(&self) -> Option<f64> {
+        Some(0.0)
+    }
+}

@@ -22,6 +22,7 @@ use super::module::StepError;
 use super::operation::{BelowMinimum, Command, OperatingState, OperationParameters, UnitState};
 use super::parameters::{ParameterError, Parameters};
 use super::snapshot_error::SnapshotError;
+use super::thermal::{HeatBalance, ThermalParameters};
 use stepper::{ChunkVisitor, Stepper};
 use tally::{Part, ReadingSums, Survey, Tally};
 
@@ -47,6 +48,8 @@ pub struct HubConfig {
     /// Reserve compensation: every module's setpoint is pre-filtered so that the slow pole
     /// is cancelled ([`CurrentDynamics::with_compensation`]).
     pub compensation: bool,
+    /// The stack temperature, if modelled: every module's thermal parameters.
+    pub thermal: Option<ThermalParameters>,
 }
 
 impl Default for HubConfig {
@@ -57,6 +60,7 @@ impl Default for HubConfig {
             hysteresis: 5.0,
             operation: OperationParameters::default(),
             compensation: false,
+            thermal: None,
         }
     }
 }
@@ -70,6 +74,8 @@ struct ModuleType {
     factors: StepFactors,
     /// c / 3600 [Nl/(A·s)].
     h2_per_coulomb: f64,
+    /// The stack's heat balance with this set's polarisation curve, if modelled.
+    thermal: Option<HeatBalance>,
 }
 
 /// `count` modules that behave identically.
@@ -233,6 +239,12 @@ impl Hub {
                 dynamics: CurrentDynamics::new(&params).with_compensation(config.compensation),
                 factors: StepFactors::default(),
                 h2_per_coulomb: params.h2_coefficient / SECONDS_PER_HOUR,
+                thermal: config.thermal.map(|thermal| HeatBalance {
+                    thermal,
+                    voltage_intercept: params.voltage_intercept,
+                    ohmic_resistance: params.ohmic_resistance,
+                    ambient: super::plant::AMBIENT_START,
+                }),
                 params,
             });
         }
@@ -266,8 +278,8 @@ impl Hub {
             power_range,
             order: Vec::new(),
             lanes: None,
-            // The lanes step the plain dynamics only.
-            lanes_enabled: !config.compensation,
+            // The lanes step the plain dynamics only, without the stack temperature.
+            lanes_enabled: !config.compensation && config.thermal.is_none(),
             aligned: false,
             partials: Vec::new(),
             surveyed: None,
@@ -275,6 +287,11 @@ impl Hub {
         };
         let n = hub.target_count(demand);
         hub.running_target = n;
+        let start_temperature = config
+            .thermal
+            .map_or(super::operation::CURVE_TEMPERATURE, |t| {
+                t.initial_temperature
+            });
         let mut active_left = n;
         for kind in 0..hub.types.len() {
             let per_type_count = hub.types[kind].count;
@@ -283,7 +300,8 @@ impl Hub {
             let u = hub.module_setpoint(kind, demand, n.max(1));
             let ty = &hub.types[kind];
             if on > 0 {
-                let unit = UnitState::steady(&ty.params, &ty.dynamics, u);
+                let unit = UnitState::steady(&ty.params, &ty.dynamics, u)
+                    .at_temperature(start_temperature);
                 hub.groups.push(Group {
                     count: on,
                     kind: kind as u32,
@@ -294,7 +312,7 @@ impl Hub {
                 });
             }
             if per_type_count > on {
-                let unit = UnitState::idle();
+                let unit = UnitState::idle().at_temperature(start_temperature);
                 hub.groups.push(Group {
                     count: per_type_count - on,
                     kind: kind as u32,
@@ -375,6 +393,9 @@ impl Hub {
             return Err(StepError::Overflow(h));
         }
         let n = self.target_count(demand);
+        // The stack temperature's integrator may refuse a step (in theory: its tolerances are
+        // met at any step size the time allows); the hub is then put back as it was.
+        let before = self.config.thermal.is_some().then(|| self.snapshot());
         let mut totals = self.totals;
         if self.rebalance(n) {
             self.settle(&mut totals);
@@ -392,8 +413,13 @@ impl Hub {
         while left > 0.0 {
             let survey = self.surveyed.take().unwrap_or_else(|| self.survey());
             let piece = survey.next_event.filter(|t| *t < left).unwrap_or(left);
-            self.surveyed =
-                Some(self.advance_groups(demand, n, &survey, piece, piece == h, &mut totals));
+            let after = self.advance_groups(demand, n, &survey, piece, piece == h, &mut totals);
+            if let (Some(failure), Some(before)) = (after.failure, before.clone()) {
+                self.restore(before)
+                    .expect("a snapshot of this hub restores into it");
+                return Err(StepError::Thermal(failure));
+            }
+            self.surveyed = Some(after);
             left -= piece;
         }
         totals.time += h;
@@ -422,7 +448,8 @@ impl Hub {
         for gs in self.groups.chunks(CHUNK) {
             let mut t = Tally::default();
             for (j, g) in gs.iter().enumerate() {
-                t.observe(j % LANES, g, &self.types[g.kind as usize].params, op);
+                let ty = &self.types[g.kind as usize];
+                t.observe(j % LANES, g, &ty.params, ty.thermal.as_ref(), op);
             }
             let part = t.fold();
             survey.add(&part);
@@ -453,9 +480,15 @@ impl Hub {
             } else {
                 Command::Stop
             };
-            let t = g
-                .unit
-                .advance(&ty.params, &ty.dynamics, &mut ty.factors, &op, command, 0.0);
+            let t = g.unit.advance(
+                &ty.params,
+                &ty.dynamics,
+                &mut ty.factors,
+                &op,
+                ty.thermal.as_ref(),
+                command,
+                0.0,
+            );
             // Counters saturate: a restored state may carry any count (found by fuzzing).
             totals.starts = totals
                 .starts
@@ -684,8 +717,22 @@ impl Hub {
         let op = &self.config.operation;
         self.groups
             .iter()
-            .map(|g| g.count as f64 * g.unit.power(&self.types[g.kind as usize].params, op))
+            .map(|g| {
+                let ty = &self.types[g.kind as usize];
+                g.count as f64 * g.unit.power(&ty.params, op, ty.thermal.as_ref())
+            })
             .sum()
+    }
+
+    /// Sets the ambient temperature [K] of every module's heat balance (none without the
+    /// thermal model); the caller checks it.
+    pub fn set_ambient_temperature(&mut self, ambient: f64) {
+        for ty in &mut self.types {
+            if let Some(balance) = &mut ty.thermal {
+                balance.ambient = ambient;
+            }
+        }
+        self.read = None;
     }
 
     /// Hydrogen flow of the hub, c·ΣI [Nl/h].
@@ -753,6 +800,10 @@ pub struct HubReadings {
     pub current: f64,
     /// Mean stack voltage V0 + R·I over Steady modules [V]; 0 when none is Steady.
     pub voltage: f64,
+    /// Mean stack temperature over the modules [K] (the thermal model's; Tn without it).
+    pub temperature: f64,
+    /// Heat the modules' cooling removes, summed [W].
+    pub cooling_power: f64,
     /// Modules in each operating state, indexed by [`OperatingState::code`].
     pub counts: [u32; 5],
 }
@@ -782,11 +833,12 @@ impl Hub {
                     kinds,
                 });
             }
-            if ![u.timer, c.current, c.z1, c.z2, g.running]
+            if ![u.timer, c.current, c.z1, c.z2, g.running, u.temperature]
                 .iter()
                 .all(|x| x.is_finite())
                 || u.timer < 0.0
                 || g.running < 0.0
+                || u.temperature <= 0.0
             {
                 return Err(SnapshotError::NonFiniteGroup);
             }
@@ -905,6 +957,7 @@ fn identity_order(a: &Group, b: &Group) -> Ordering {
         .then(a.unit.current.current.total_cmp(&b.unit.current.current))
         .then(a.unit.current.z1.total_cmp(&b.unit.current.z1))
         .then(a.unit.current.z2.total_cmp(&b.unit.current.z2))
+        .then(a.unit.temperature.total_cmp(&b.unit.temperature))
         .then(a.running.total_cmp(&b.running))
         .then(a.starts.cmp(&b.starts))
 }
@@ -915,3 +968,6 @@ fn same(a: &Group, b: &Group) -> bool {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod thermal_tests;

@@ -24,11 +24,19 @@
 //! All durations are known in advance, so a step is cut at each transition time and every
 //! piece is integrated in closed form ([`CurrentDynamics::advance`] while Steady, constant
 //! power otherwise): results do not depend on the communication step size.
+//!
+//! With the stack temperature modelled (a [`HeatBalance`]), every piece also advances the
+//! temperature ([`crate::thermal::step`]): along the exact current while Steady, at zero current
+//! (a stack that cools in closed form) otherwise; a Steady module's voltage is then the
+//! temperature's, V = V0 + kV·(T − Tn) + (R + kR·(T − Tn))·I.
 
 use std::fmt;
 
+use super::current_path::{HeldSetpoint, NoCurrent};
 use super::dynamics::{CurrentDynamics, CurrentState, StepFactors};
 use super::parameters::{ParameterError, Parameters};
+use super::thermal::step::{self as thermal_step, CurrentPath, ThermalError};
+use super::thermal::HeatBalance;
 
 /// Operating state of a module; the discriminant is the FMU's Integer code.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -170,6 +178,8 @@ pub struct UnitState {
     pub timer: f64,
     /// Current dynamics; all zero unless Steady.
     pub current: CurrentState,
+    /// Stack temperature [K] (the polarisation curve's, Tn, without the thermal model).
+    pub temperature: f64,
 }
 
 /// What one module did during a step (per module; a group multiplies by its count).
@@ -183,6 +193,9 @@ pub struct UnitTotals {
     pub running: f64,
     /// Starts (entries into Curve).
     pub starts: u32,
+    /// Why the stack temperature could not be advanced, if it could not (the step is then
+    /// refused by the hub).
+    pub failure: Option<ThermalError>,
 }
 
 const ZERO_CURRENT: CurrentState = CurrentState {
@@ -191,6 +204,9 @@ const ZERO_CURRENT: CurrentState = CurrentState {
     current: 0.0,
 };
 
+/// Stack temperature of a module without the thermal model: the polarisation curve's [K].
+pub const CURVE_TEMPERATURE: f64 = 328.15;
+
 impl UnitState {
     /// Idle (cold, off).
     pub fn idle() -> Self {
@@ -198,6 +214,7 @@ impl UnitState {
             state: OperatingState::Idle,
             timer: 0.0,
             current: ZERO_CURRENT,
+            temperature: CURVE_TEMPERATURE,
         }
     }
 
@@ -207,7 +224,21 @@ impl UnitState {
             state: OperatingState::Steady,
             timer: 0.0,
             current: dynamics.steady_state(params.clamp_setpoint(setpoint)),
+            temperature: CURVE_TEMPERATURE,
         }
+    }
+
+    /// The same state with the stack at `temperature` [K].
+    pub fn at_temperature(self, temperature: f64) -> Self {
+        UnitState {
+            temperature,
+            ..self
+        }
+    }
+
+    /// Moves to `next`, keeping the stack temperature.
+    fn enter(&mut self, next: UnitState) {
+        *self = next.at_temperature(self.temperature);
     }
 
     /// Stack current [A].
@@ -215,13 +246,25 @@ impl UnitState {
         self.current.current
     }
 
-    /// Electric power now [W]: (V0 + R·I)·I when Steady, else the state's constant power.
-    pub fn power(&self, params: &Parameters, op: &OperationParameters) -> f64 {
+    /// Stack voltage of a Steady module [V]: V0 + R·I, or the temperature's with `thermal`.
+    pub fn voltage(&self, params: &Parameters, thermal: Option<&HeatBalance>) -> f64 {
+        let i = self.current.current;
+        match thermal {
+            None => params.voltage_intercept + params.ohmic_resistance * i,
+            Some(balance) => balance.voltage(self.temperature, i),
+        }
+    }
+
+    /// Electric power now [W]: V·I when Steady (V as [`Self::voltage`]), else the state's
+    /// constant power.
+    pub fn power(
+        &self,
+        params: &Parameters,
+        op: &OperationParameters,
+        thermal: Option<&HeatBalance>,
+    ) -> f64 {
         match self.state {
-            OperatingState::Steady => {
-                let i = self.current.current;
-                (params.voltage_intercept + params.ohmic_resistance * i) * i
-            }
+            OperatingState::Steady => self.voltage(params, thermal) * self.current.current,
             OperatingState::Curve => op.start_power,
             OperatingState::Standby | OperatingState::Blowdown => op.standby_power,
             OperatingState::Idle => 0.0,
@@ -229,7 +272,9 @@ impl UnitState {
     }
 
     /// Advances by `h` > 0 seconds under `command`, cutting the step at every transition.
-    /// `h` and the setpoint must be finite (the caller checks).
+    /// `h` and the setpoint must be finite (the caller checks). With `thermal`, the stack
+    /// temperature too (a failure is reported in the totals).
+    #[allow(clippy::too_many_arguments)]
     #[inline]
     pub fn advance(
         &mut self,
@@ -237,12 +282,13 @@ impl UnitState {
         dynamics: &CurrentDynamics,
         factors: &mut StepFactors,
         op: &OperationParameters,
+        thermal: Option<&HeatBalance>,
         command: Command,
         h: f64,
     ) -> UnitTotals {
         use OperatingState::*;
         if command == Stop {
-            if let Some(totals) = self.wait_stopped(op, h) {
+            if let Some(totals) = self.wait_stopped(op, thermal, h) {
                 return totals;
             }
         }
@@ -253,7 +299,7 @@ impl UnitState {
         loop {
             match (self.state, command) {
                 (Steady, Run(u)) => {
-                    self.run(params, dynamics, factors, u, left, h, &mut totals);
+                    self.run(params, dynamics, factors, thermal, u, left, h, &mut totals);
                     return totals;
                 }
                 (Steady, Stop) => match op.below_minimum {
@@ -262,6 +308,7 @@ impl UnitState {
                             params,
                             dynamics,
                             factors,
+                            thermal,
                             params.min_setpoint,
                             left,
                             h,
@@ -269,31 +316,34 @@ impl UnitState {
                         );
                         return totals;
                     }
-                    BelowMinimum::Standby => *self = timed(Standby, op.standby_duration),
-                    BelowMinimum::Off => *self = timed(Blowdown, op.stop_duration),
+                    BelowMinimum::Standby => self.enter(timed(Standby, op.standby_duration)),
+                    BelowMinimum::Off => self.enter(timed(Blowdown, op.stop_duration)),
                 },
-                (Idle, Stop) => return totals,
+                (Idle, Stop) => {
+                    self.cool(thermal, left, &mut totals);
+                    return totals;
+                }
                 (Idle, Run(_)) => {
-                    *self = timed(Curve, op.cold_start_time);
+                    self.enter(timed(Curve, op.cold_start_time));
                     totals.starts += 1;
                 }
                 (Standby, Run(_)) => {
-                    *self = timed(Curve, op.warm_start_time);
+                    self.enter(timed(Curve, op.warm_start_time));
                     totals.starts += 1;
                 }
-                (Curve, Stop) => *self = UnitState::idle(),
+                (Curve, Stop) => self.enter(UnitState::idle()),
                 (Curve, Run(_)) => {
-                    if self.wait(op.start_power, &mut left, &mut totals) {
+                    if self.wait(op.start_power, thermal, &mut left, &mut totals) {
                         return totals;
                     }
                     // Start complete: current appears at K·minSetpoint in steady state.
-                    *self = UnitState::steady(params, dynamics, params.min_setpoint);
+                    self.enter(UnitState::steady(params, dynamics, params.min_setpoint));
                 }
                 (Standby, Stop) | (Blowdown, _) => {
-                    if self.wait(op.standby_power, &mut left, &mut totals) {
+                    if self.wait(op.standby_power, thermal, &mut left, &mut totals) {
                         return totals;
                     }
-                    *self = UnitState::idle();
+                    self.enter(UnitState::idle());
                 }
             }
         }
@@ -303,13 +353,21 @@ impl UnitState {
     /// Standby or Blowdown with more than `h` left): the same result in a few instructions,
     /// which [`Self::advance`] itself uses. None, changing nothing, otherwise.
     #[inline(always)]
-    pub fn wait_stopped(&mut self, op: &OperationParameters, h: f64) -> Option<UnitTotals> {
+    pub fn wait_stopped(
+        &mut self,
+        op: &OperationParameters,
+        thermal: Option<&HeatBalance>,
+        h: f64,
+    ) -> Option<UnitTotals> {
         let mut totals = UnitTotals::default();
         match self.state {
-            OperatingState::Idle => Some(totals),
+            OperatingState::Idle => {
+                self.cool(thermal, h, &mut totals);
+                Some(totals)
+            }
             OperatingState::Standby | OperatingState::Blowdown if self.timer > h => {
                 let mut left = h;
-                self.wait(op.standby_power, &mut left, &mut totals);
+                self.wait(op.standby_power, thermal, &mut left, &mut totals);
                 Some(totals)
             }
             _ => None,
@@ -325,6 +383,7 @@ impl UnitState {
         params: &Parameters,
         dynamics: &CurrentDynamics,
         factors: &mut StepFactors,
+        thermal: Option<&HeatBalance>,
         u: f64,
         length: f64,
         h: f64,
@@ -334,6 +393,14 @@ impl UnitState {
             return;
         }
         let u = params.clamp_setpoint(u);
+        if let Some(balance) = thermal {
+            let path = HeldSetpoint {
+                dynamics,
+                start: self.current,
+                setpoint: u,
+            };
+            self.heat(balance, &path, length, totals);
+        }
         let ints = if length == h {
             dynamics.advance(&mut self.current, u, length, factors)
         } else {
@@ -345,20 +412,61 @@ impl UnitState {
         totals.running += length;
     }
 
-    /// Spends time in a timed state at constant `power` [W]. Returns true if the step ends
-    /// first (the timer keeps the rest), false if the timer ran out (`left` reduced).
+    /// Spends time in a timed state at constant `power` [W] (the stack cooling with
+    /// `thermal`). Returns true if the step ends first (the timer keeps the rest), false if
+    /// the timer ran out (`left` reduced).
     #[inline]
-    fn wait(&mut self, power: f64, left: &mut f64, totals: &mut UnitTotals) -> bool {
+    fn wait(
+        &mut self,
+        power: f64,
+        thermal: Option<&HeatBalance>,
+        left: &mut f64,
+        totals: &mut UnitTotals,
+    ) -> bool {
         if self.timer > *left {
+            self.cool(thermal, *left, totals);
             self.timer -= *left;
             totals.energy += power * *left;
             *left = 0.0;
             true
         } else {
+            self.cool(thermal, self.timer, totals);
             totals.energy += power * self.timer;
             *left -= self.timer;
             self.timer = 0.0;
             false
+        }
+    }
+
+    /// `length` [s] without stack current: the stack cools in closed form (with `thermal`).
+    #[inline]
+    fn cool(&mut self, thermal: Option<&HeatBalance>, length: f64, totals: &mut UnitTotals) {
+        if let Some(balance) = thermal {
+            if length > 0.0 {
+                self.heat(balance, &NoCurrent, length, totals);
+            }
+        }
+    }
+
+    /// The stack temperature over `length` [s] along `path`, and the voltage's temperature
+    /// terms of the energy, kV·∫(T − Tn)·I dt + kR·∫(T − Tn)·I² dt.
+    fn heat(
+        &mut self,
+        balance: &HeatBalance,
+        path: &impl CurrentPath,
+        length: f64,
+        totals: &mut UnitTotals,
+    ) {
+        match thermal_step::advance(balance, self.temperature, path, length) {
+            Ok(q) => {
+                let t = &balance.thermal;
+                totals.energy += t.voltage_temperature_coefficient * q.heat_charge
+                    + t.resistance_temperature_coefficient * q.heat_squared;
+                self.temperature = q.temperature;
+            }
+            Err(e) => {
+                totals.failure.get_or_insert(e);
+            }
         }
     }
 }
@@ -370,6 +478,7 @@ fn timed(state: OperatingState, duration: f64) -> UnitState {
         state,
         timer: duration,
         current: ZERO_CURRENT,
+        temperature: CURVE_TEMPERATURE,
     }
 }
 
@@ -422,7 +531,7 @@ mod tests {
             for _ in 0..n {
                 let t = self
                     .s
-                    .advance(&self.p, &self.d, &mut self.f, &self.op, c, h);
+                    .advance(&self.p, &self.d, &mut self.f, &self.op, None, c, h);
                 self.totals.energy += t.energy;
                 self.totals.charge += t.charge;
                 self.totals.running += t.running;

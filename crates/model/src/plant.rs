@@ -155,6 +155,7 @@ impl PlantSettings {
                 below_minimum: BelowMinimum::from_code(self.below_minimum as i64)?,
             },
             compensation: self.reserve.compensation,
+            thermal: None,
         };
         super::hub::validate(&hub)?;
         self.reserve.validate()?;
@@ -170,18 +171,12 @@ impl PlantSettings {
             return Ok(config);
         }
         self.thermal.validate()?;
-        if !config.is_single_module() {
-            return Err(ParameterError {
-                name: "thermalModel",
-                value: 1.0,
-                requirement: "the stack temperature is modelled for one module that never stops \
-                              (nModules = 1, belowMinimum = stayAtMinimum, powerInput = false, \
-                              parameterSpread = 0, no reserves): a hub does not model it yet"
-                    .into(),
-            });
-        }
         Ok(PlantConfig {
             thermal: Some(self.thermal),
+            hub: HubConfig {
+                thermal: Some(self.thermal),
+                ..config.hub
+            },
             ..config
         })
     }
@@ -253,16 +248,9 @@ impl Plant {
         setpoint: f64,
         power_reference: f64,
     ) -> Result<Self, ParameterError> {
-        if let Some(thermal) = config.thermal {
-            if module_sets.is_some() {
-                return Err(ParameterError {
-                    name: "thermalModel",
-                    value: 1.0,
-                    requirement:
-                        "the stack temperature is not modelled with a moduleParameterFile yet"
-                            .into(),
-                });
-            }
+        if let (Some(thermal), true, None) =
+            (config.thermal, config.is_single_module(), module_sets)
+        {
             return Ok(Plant::Module(Module::with_thermal(
                 params,
                 thermal,
@@ -622,20 +610,20 @@ impl Plant {
         }
     }
 
-    /// Stack temperature [K]: the module's with the thermal model, else the polarisation
-    /// curve's (Table I: 55 °C).
+    /// Stack temperature [K]: the module's (a hub: the mean over its modules) with the thermal
+    /// model, else the polarisation curve's (Table I: 55 °C).
     pub fn stack_temperature(&self) -> f64 {
         match self {
             Plant::Module(m) => m.temperature(),
-            Plant::Hub(..) => ThermalParameters::default().nominal_temperature,
+            Plant::Hub(_, r) => r.temperature,
         }
     }
 
-    /// Heat the stack's cooling removes now [W] (0 without the thermal model).
+    /// Heat the stack's cooling removes now, per module [W] (0 without the thermal model).
     pub fn cooling_power(&self) -> f64 {
         match self {
             Plant::Module(m) => m.cooling_power(),
-            Plant::Hub(..) => 0.0,
+            Plant::Hub(_, r) => r.cooling_power / self.modules(),
         }
     }
 
@@ -644,7 +632,11 @@ impl Plant {
     pub fn set_ambient_temperature(&mut self, ambient: f64) -> Result<(), StepError> {
         match self {
             Plant::Module(m) => m.set_ambient_temperature(ambient),
-            Plant::Hub(..) if ambient.is_finite() && ambient > 0.0 => Ok(()),
+            Plant::Hub(hub, readings) if ambient.is_finite() && ambient > 0.0 => {
+                hub.set_ambient_temperature(ambient);
+                *readings = hub.readings();
+                Ok(())
+            }
             Plant::Hub(..) => Err(StepError::InvalidAmbientTemperature(ambient)),
         }
     }

@@ -161,15 +161,43 @@ def test_bad_thermal_parameters_refuse_initialisation_with_their_name(driver, na
     assert any(status == "ERROR" and words in text for status, _, text in d.messages), d.messages
 
 
-def test_a_hub_refuses_the_thermal_model_with_a_reason(driver):
+def test_a_hub_of_equal_modules_is_that_many_thermal_modules(driver):
+    """nModules = 4, equal dispatch, never stopping: the per-module outputs of the hub are the
+    single thermal module's, the hub's energy four times its energy."""
+    one = thermal(driver, setpoint=70.0)
+    hub = driver(logging_on=True)
+    hub.fmu.setupExperiment(startTime=0.0)
+    hub.fmu.setBoolean([hub.vr["thermalModel"]], [True])
+    hub.fmu.setInteger([hub.vr["nModules"]], [4])
+    hub.set(setpoint=70.0, ambientTemperature=288.15, **THERMAL)
+    hub.fmu.enterInitializationMode()
+    hub.fmu.exitInitializationMode()
+    for setpoint in (100.0, 60.0, 85.0):
+        one.step(900.0, setpoint=setpoint)
+        hub.step(900.0, setpoint=setpoint)
+        t, q, v = one.get("stackTemperature", "coolingPower", "voltage")
+        assert hub.get("stackTemperature") == pytest.approx(t, abs=1e-12)
+        assert hub.get("coolingPower") == pytest.approx(q, abs=1e-9)
+        assert hub.get("voltage") == pytest.approx(v, rel=1e-14)
+        assert hub.get("hubEnergy") == pytest.approx(4.0 * one.get("energy"), rel=1e-12)
+
+
+def test_a_stopped_hub_module_cools_toward_ambient(driver):
+    """One module of a hub (belowMinimum = off) asked for nothing stops and cools: from the
+    setpoint, C dT/dt = -(T - Ta)/Rth, an exponential with the time constant Rth C."""
     d = driver(logging_on=True)
     d.fmu.setupExperiment(startTime=0.0)
     d.fmu.setBoolean([d.vr["thermalModel"]], [True])
-    d.fmu.setInteger([d.vr["nModules"]], [3])
+    d.fmu.setInteger([d.vr["nModules"], d.vr["belowMinimum"]], [2, 2])
+    d.set(setpoint=0.0, ambientTemperature=278.15, **{**THERMAL, "initialTemperature": 328.15})
     d.fmu.enterInitializationMode()
-    with pytest.raises(FMICallException):
-        d.fmu.exitInitializationMode()
-    assert any("thermalModel" in text and "one module" in text for _, _, text in d.messages), d.messages
+    d.fmu.exitInitializationMode()
+    tau = THERMAL["thermalResistance"] * THERMAL["heatCapacity"]
+    for _ in range(6):
+        d.step(1200.0)
+        expected = 278.15 + 50.0 * math.exp(-d.time / tau)
+        assert d.get("stackTemperature") == pytest.approx(expected, abs=1e-9)
+    assert d.fmu.getInteger([d.vr["modulesIdle"]]) == [2]
 
 
 @pytest.mark.parametrize("ambient", [float("nan"), 0.0, -20.0, float("inf")])

@@ -36,6 +36,7 @@ impl Stepper {
             &ty.dynamics,
             &mut ty.factors,
             &self.op,
+            ty.thermal.as_ref(),
             command,
             self.piece,
         );
@@ -54,7 +55,10 @@ impl Stepper {
             g.running += t.running;
             g.starts = g.starts.saturating_add(t.starts as u64);
         }
-        tally.observe(k, g, &ty.params, &self.op);
+        if t.failure.is_some() {
+            tally.failure = tally.failure.or(t.failure);
+        }
+        tally.observe(k, g, &ty.params, ty.thermal.as_ref(), &self.op);
     }
 
     /// [`Self::advance`] for a stopped group that stays as it is (Idle, or Standby or Blowdown
@@ -65,7 +69,10 @@ impl Stepper {
         if g.active {
             return false;
         }
-        let Some(t) = g.unit.wait_stopped(&self.op, self.piece) else {
+        let Some(t) = g
+            .unit
+            .wait_stopped(&self.op, ty.thermal.as_ref(), self.piece)
+        else {
             return false;
         };
         self.add(ty, g, &t, tally, k);

@@ -9,6 +9,8 @@
 use super::super::lanes::{Lane, Outcomes, LANES};
 use super::super::operation::{OperatingState, OperationParameters};
 use super::super::parameters::Parameters;
+use super::super::thermal::step::ThermalError;
+use super::super::thermal::HeatBalance;
 use super::{Group, HubReadings};
 
 /// A chunk's sums while its groups are stepped or observed, lane k for group j ≡ k (mod 4).
@@ -26,6 +28,9 @@ pub(super) struct Tally {
     pub h2_flow: Lane,
     pub current: Lane,
     pub voltage: Lane,
+    /// With the thermal model: stack temperatures [K] and cooling powers [W], summed.
+    pub temperature: Lane,
+    pub cooling: Lane,
     pub starts: u64,
     /// Modules dispatched and Steady.
     pub carrying: u32,
@@ -34,6 +39,8 @@ pub(super) struct Tally {
     pub counts: [u32; 5],
     /// Time to the next end of a start, standby or stop [s]; infinite if none.
     pub next_event: f64,
+    /// The first failure of the stack temperature's step in the chunk.
+    pub failure: Option<ThermalError>,
 }
 
 impl Default for Tally {
@@ -48,11 +55,14 @@ impl Default for Tally {
             h2_flow: zero,
             current: zero,
             voltage: zero,
+            temperature: zero,
+            cooling: zero,
             starts: 0,
             carrying: 0,
             steady: 0,
             counts: [0; 5],
             next_event: f64::INFINITY,
+            failure: None,
         }
     }
 }
@@ -60,12 +70,23 @@ impl Default for Tally {
 impl Tally {
     /// Counts group `g` (lane k) as it is now: its outputs and its part in the survey.
     #[inline(always)]
-    pub fn observe(&mut self, k: usize, g: &Group, p: &Parameters, op: &OperationParameters) {
+    pub fn observe(
+        &mut self,
+        k: usize,
+        g: &Group,
+        p: &Parameters,
+        thermal: Option<&HeatBalance>,
+        op: &OperationParameters,
+    ) {
         use OperatingState::*;
         let i = g.unit.stack_current();
         let c = g.count as f64;
+        if let Some(balance) = thermal {
+            self.temperature[k] += c * g.unit.temperature;
+            self.cooling[k] += c * balance.cooling_power(g.unit.temperature, i);
+        }
         if g.unit.state == Steady {
-            let v = p.voltage_intercept + p.ohmic_resistance * i;
+            let v = g.unit.voltage(p, thermal);
             self.observe_steady(k, g.count, i, v * i, p.h2_coefficient * i, v);
             if g.active {
                 self.carrying += g.count;
@@ -74,7 +95,7 @@ impl Tally {
             }
             return;
         }
-        let power = c * g.unit.power(p, op);
+        let power = c * g.unit.power(p, op, thermal);
         self.power[k] += power;
         self.h2_flow[k] += c * (p.h2_coefficient * i);
         self.current[k] += c * i;
@@ -157,11 +178,14 @@ impl Tally {
             carrying: self.carrying,
             others: fold(&self.others),
             next_event: self.next_event,
+            failure: self.failure,
             reading: ReadingSums {
                 power: fold(&self.power),
                 h2_flow: fold(&self.h2_flow),
                 current: fold(&self.current),
                 voltage: fold(&self.voltage),
+                temperature: fold(&self.temperature),
+                cooling: fold(&self.cooling),
                 steady: self.steady,
                 counts: self.counts,
             },
@@ -179,6 +203,7 @@ pub(super) struct Part {
     pub carrying: u32,
     pub others: f64,
     pub next_event: f64,
+    pub failure: Option<ThermalError>,
     pub reading: ReadingSums,
 }
 
@@ -190,6 +215,8 @@ pub(super) struct Survey {
     pub carrying: u32,
     pub others: f64,
     pub next_event: Option<f64>,
+    /// The first failure of the stack temperature's step (after a piece).
+    pub failure: Option<ThermalError>,
 }
 
 impl Survey {
@@ -198,6 +225,7 @@ impl Survey {
             carrying: 0,
             others: 0.0,
             next_event: None,
+            failure: None,
         }
     }
 
@@ -205,6 +233,7 @@ impl Survey {
     pub fn add(&mut self, t: &Part) {
         self.carrying += t.carrying;
         self.others += t.others;
+        self.failure = self.failure.or(t.failure);
         if t.next_event.is_finite() {
             self.next_event = Some(
                 self.next_event
@@ -221,6 +250,9 @@ pub(super) struct ReadingSums {
     h2_flow: f64,
     current: f64,
     voltage: f64,
+    /// Stack temperatures [K] and cooling powers [W] summed (0 without the thermal model).
+    temperature: f64,
+    cooling: f64,
     steady: u64,
     counts: [u32; 5],
 }
@@ -231,6 +263,8 @@ impl ReadingSums {
         self.h2_flow += part.h2_flow;
         self.current += part.current;
         self.voltage += part.voltage;
+        self.temperature += part.temperature;
+        self.cooling += part.cooling;
         self.steady += part.steady;
         for (a, b) in self.counts.iter_mut().zip(part.counts) {
             *a += b;
@@ -247,6 +281,13 @@ impl ReadingSums {
             } else {
                 0.0
             },
+            // Temperatures are summed only with the thermal model (all > 0 K then).
+            temperature: if self.temperature > 0.0 {
+                self.temperature / self.counts.iter().map(|&c| c as f64).sum::<f64>()
+            } else {
+                super::super::operation::CURVE_TEMPERATURE
+            },
+            cooling_power: self.cooling,
             counts: self.counts,
         }
     }

@@ -1,0 +1,170 @@
+//! The hub with the stack temperature: N equal modules are N single modules, stopped modules
+//! cool in closed form, results do not depend on the step size, equal histories share a group.
+
+use super::*;
+use crate::thermal::ThermalParameters;
+use crate::Module;
+
+fn config(
+    n: u32,
+    policy: DispatchPolicy,
+    below: BelowMinimum,
+    thermal: ThermalParameters,
+) -> HubConfig {
+    HubConfig {
+        n_modules: n,
+        policy,
+        operation: OperationParameters {
+            below_minimum: below,
+            ..Default::default()
+        },
+        thermal: Some(thermal),
+        ..Default::default()
+    }
+}
+
+#[test]
+fn an_equal_hub_is_n_thermal_modules() {
+    let (p, t) = (Parameters::default(), ThermalParameters::default());
+    let n = 7;
+    let mut hub = Hub::new(
+        p,
+        config(n, DispatchPolicy::Equal, BelowMinimum::Minimum, t),
+        Demand::Setpoint(70.0),
+    )
+    .unwrap();
+    let mut one = Module::with_thermal(p, t, crate::plant::AMBIENT_START, 70.0).unwrap();
+    for (k, u) in [95.0, 60.0, 100.0, 75.0, 100.0].iter().enumerate() {
+        let h = 300.0 + 17.0 * k as f64;
+        hub.step(Demand::Setpoint(*u), h).unwrap();
+        one.step(*u, h).unwrap();
+        let r = hub.readings();
+        assert!(
+            (r.temperature - one.temperature()).abs() < 1e-12,
+            "{} vs {}",
+            r.temperature,
+            one.temperature()
+        );
+        assert!(
+            (hub.totals().energy - n as f64 * one.energy()).abs() < 1e-12 * hub.totals().energy
+        );
+        assert!((r.voltage - one.voltage()).abs() < 1e-12);
+        assert!((r.cooling_power - n as f64 * one.cooling_power()).abs() < 1e-9);
+    }
+    assert_eq!(hub.groups().len(), 1, "equal histories share a group");
+}
+
+#[test]
+fn a_stopped_stack_cools_in_closed_form() {
+    let t = ThermalParameters {
+        initial_temperature: 340.0,
+        ..ThermalParameters::default()
+    };
+    let tau = t.thermal_resistance * t.heat_capacity;
+    for h in [7200.0, 60.0, 0.5] {
+        let mut hub = Hub::new(
+            Parameters::default(),
+            config(3, DispatchPolicy::Sequential, BelowMinimum::Off, t),
+            Demand::Setpoint(0.0),
+        )
+        .unwrap();
+        hub.set_ambient_temperature(270.0);
+        for _ in 0..(7200.0 / h) as usize {
+            hub.step(Demand::Setpoint(0.0), h).unwrap();
+        }
+        // Above the setpoint the cooling runs at Qmax until the stack is down to Ts, then the
+        // stack loses heat to ambient alone: T = Ta + (Ts − Ta)·e^(−(t − t1)/τ).
+        let (ta, ts, qmax) = (270.0, t.cooling_setpoint, t.max_cooling_power);
+        // Above Ts: C·dT/dt = −(T − Ta)/Rth − Qmax, an exponential toward Ta − Qmax·Rth.
+        let floor = ta - qmax * t.thermal_resistance;
+        let t1 = tau * ((340.0 - floor) / (ts - floor)).ln();
+        let expected = ta + (ts - ta) * (-(7200.0 - t1) / tau).exp();
+        let got = hub.readings().temperature;
+        assert!(
+            (got - expected).abs() < 1e-9,
+            "h = {h}: {got} K vs {expected} K"
+        );
+        assert_eq!(hub.readings().cooling_power, 0.0);
+        assert_eq!(hub.totals().energy, 0.0, "idle modules draw nothing");
+    }
+}
+
+#[test]
+fn a_sequential_thermal_hub_does_not_depend_on_the_step_size() {
+    let t = ThermalParameters {
+        heat_capacity: 2_000.0, // a 400 s time constant: the starts and stops show
+        ..ThermalParameters::default()
+    };
+    let p = Parameters::default();
+    let rated = crate::dispatch::power_at_setpoint(&p, 100.0);
+    // A power reference that starts and stops modules: 0.5, 2.7, 1.2, 3.9, 0.2 modules' worth.
+    let program = [0.5, 2.7, 1.2, 3.9, 0.2];
+    let run = |h: f64| {
+        let mut hub = Hub::new(
+            p,
+            config(4, DispatchPolicy::Sequential, BelowMinimum::Standby, t),
+            Demand::Power(0.0),
+        )
+        .unwrap();
+        let mut at = vec![];
+        for share in program {
+            for _ in 0..(600.0 / h).round() as usize {
+                hub.step(Demand::Power(share * rated), h).unwrap();
+            }
+            let r = hub.readings();
+            at.push((r.temperature, hub.totals().energy, r.counts));
+        }
+        at
+    };
+    let reference = run(600.0);
+    for h in [1.0, 7.5, 60.0] {
+        for (k, ((t1, e1, c1), (t0, e0, c0))) in run(h).iter().zip(&reference).enumerate() {
+            assert_eq!(c1, c0, "h = {h}, segment {k}: the same states");
+            assert!(
+                (t1 - t0).abs() < 1e-6,
+                "h = {h}, segment {k}: {t1} K vs {t0} K"
+            );
+            assert!(
+                (e1 - e0).abs() < 1e-9 * e0.max(1.0),
+                "h = {h}, segment {k}: {e1} J vs {e0} J"
+            );
+        }
+    }
+}
+
+#[test]
+fn without_the_thermal_model_the_hub_reads_the_curves_temperature() {
+    let cfg = HubConfig {
+        n_modules: 5,
+        ..Default::default()
+    };
+    let mut hub = Hub::new(Parameters::default(), cfg, Demand::Setpoint(80.0)).unwrap();
+    hub.step(Demand::Setpoint(90.0), 100.0).unwrap();
+    let r = hub.readings();
+    assert_eq!((r.temperature, r.cooling_power), (328.15, 0.0));
+}
+
+#[test]
+fn a_restored_thermal_hub_continues_bit_for_bit() {
+    let t = ThermalParameters::default();
+    let cfg = config(6, DispatchPolicy::Sequential, BelowMinimum::Standby, t);
+    let p = Parameters::default();
+    let rated = crate::dispatch::power_at_setpoint(&p, 100.0);
+    let mut hub = Hub::new(p, cfg, Demand::Power(2.5 * rated)).unwrap();
+    for k in 0..20 {
+        hub.step(Demand::Power((1.0 + (k % 5) as f64) * rated), 90.0)
+            .unwrap();
+    }
+    let saved = hub.snapshot();
+    let mut twin = Hub::new(p, cfg, Demand::Power(0.0)).unwrap();
+    twin.restore(saved).unwrap();
+    for k in 0..10 {
+        let d = Demand::Power((0.5 + k as f64) * rated * 0.5);
+        hub.step(d, 45.0).unwrap();
+        twin.step(d, 45.0).unwrap();
+    }
+    assert_eq!(hub.snapshot(), twin.snapshot());
+    let mut bad = hub.snapshot();
+    bad.groups[0].unit.temperature = -1.0;
+    assert!(twin.restore(bad).is_err());
+}
