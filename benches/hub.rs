@@ -5,8 +5,9 @@
 //!
 //! cargo bench --bench hub
 //!
-//! Cases: `equal` (one group), `sequential` (a few groups), and 25 000 individual parameter
-//! sets (±3 % seeded spread around Table I, equal dispatch: 25 000 groups of one, stepped four
+//! Cases: `equal` (one group), `sequential` (a few groups), the sequential hub with every
+//! module's stack temperature modelled (its time as a ratio to the sequential's, same run),
+//! and 25 000 individual parameter sets (±3 % seeded spread around Table I, equal dispatch: 25 000 groups of one, stepped four
 //! at a time in lanes and on every core). `cargo bench --bench hub -- NAME` runs the cases
 //! whose name contains NAME.
 //! Prints wall seconds per simulated day and the hardware. Targets from issue 4:
@@ -20,6 +21,7 @@ use aem_model::dispatch::power_at_setpoint;
 use aem_model::spread::spread_parameters;
 use aem_model::{
     BelowMinimum, Demand, DispatchPolicy, Hub, HubConfig, OperationParameters, Parameters,
+    ThermalParameters,
 };
 use fmi_sys::fmi2 as sys;
 
@@ -64,13 +66,14 @@ fn hardware() -> String {
     )
 }
 
-fn run(name: &str, mut hub: Hub, reference: &[f64], target: f64) {
+/// Runs the day; the wall seconds it took (None if a step failed).
+fn run(name: &str, mut hub: Hub, reference: &[f64], target: f64) -> Option<f64> {
     let start = Instant::now();
     let mut max_groups = 0;
     for &p in reference {
         if let Err(e) = hub.step(Demand::Power(p), 1.0) {
             eprintln!("{name}: step failed: {e}");
-            return;
+            return None;
         }
         max_groups = max_groups.max(hub.groups().len());
     }
@@ -82,6 +85,7 @@ fn run(name: &str, mut hub: Hub, reference: &[f64], target: f64) {
         t.h2_produced * aem_model::hub::H2_KG_PER_NL,
         t.starts
     );
+    Some(secs)
 }
 
 /// The hub through the C interface for the whole reference (one day).
@@ -178,17 +182,35 @@ fn main() {
     let first = Demand::Power(reference[0]);
     let equal = Hub::new(base, config(DispatchPolicy::Equal), first);
     let sequential = Hub::new(base, config(DispatchPolicy::Sequential), first);
+    // The same sequential hub with every module's stack temperature modelled (defaults).
+    let thermal = Hub::new(
+        base,
+        HubConfig {
+            thermal: Some(ThermalParameters::default()),
+            ..config(DispatchPolicy::Sequential)
+        },
+        first,
+    );
     // Seed 1: the FMU's default spreadSeed, so that both runs simulate the same hub.
     let sets = spread_parameters(&base, MODULES as usize, 0.03, 1);
     let individual = Hub::with_parameter_sets(sets, config(DispatchPolicy::Equal), first);
-    match (equal, sequential, individual) {
-        (Ok(e), Ok(s), Ok(i)) => {
+    match (equal, sequential, individual, thermal) {
+        (Ok(e), Ok(s), Ok(i), Ok(th)) => {
             println!("one day at 1 s, {MODULES} modules, rated {:.1} MW, wind-like power reference (seed 42)", rated / 1e6);
             if wanted("equal") {
                 run("equal", e, &reference, 0.5);
             }
-            if wanted("sequential") {
-                run("sequential", s, &reference, 1.0);
+            let plain = wanted("sequential")
+                .then(|| run("sequential", s, &reference, 1.0))
+                .flatten();
+            let warm = wanted("sequential, stack temperature")
+                .then(|| run("sequential, stack temperature", th, &reference, 2.0))
+                .flatten();
+            if let (Some(plain), Some(warm)) = (plain, warm) {
+                println!(
+                    "  the stack temperature costs {:.2}x the sequential hub's time (target <= 2x, same run)",
+                    warm / plain
+                );
             }
             if wanted("individual parameters (eq)") {
                 run("individual parameters (eq)", i, &reference, 15.0);
@@ -204,11 +226,12 @@ fn main() {
                 run_c_abi("C ABI individual parameters", 1, 0.03, &reference, 15.0);
             }
         }
-        (e, s, i) => eprintln!(
-            "cannot build the hubs: {:?} {:?} {:?}",
+        (e, s, i, th) => eprintln!(
+            "cannot build the hubs: {:?} {:?} {:?} {:?}",
             e.err(),
             s.err(),
-            i.err()
+            i.err(),
+            th.err()
         ),
     }
 }
