@@ -386,6 +386,12 @@ impl Instance {
                     shown(*value)
                 )));
             }
+            if var == RealVariable::AmbientTemperature && *value <= 0.0 {
+                return Err(error(format!(
+                    "ambientTemperature = {} refused: must be a finite number > 0 K",
+                    shown(*value)
+                )));
+            }
             let field = match var.causality() {
                 Causality::Input => real_input_mut(&mut inputs, var),
                 Causality::Parameter => {
@@ -404,19 +410,12 @@ impl Instance {
             }
         }
         if inputs.ambient_temperature != self.inputs.ambient_temperature {
-            // An input the plant holds: checked and handed over now (coolingPower depends on it).
-            let ambient = inputs.ambient_temperature;
-            match self.plant.as_mut() {
-                Some((_, plant)) => plant.set_ambient_temperature(ambient),
-                None if ambient > 0.0 => Ok(()),
-                None => Err(aem_model::StepError::InvalidAmbientTemperature(ambient)),
+            // An input the plant holds: handed over now (coolingPower depends on it).
+            if let Some((_, plant)) = self.plant.as_mut() {
+                plant
+                    .set_ambient_temperature(inputs.ambient_temperature)
+                    .map_err(|e| error(e.to_string()))?;
             }
-            .map_err(|_| {
-                error(format!(
-                    "ambientTemperature = {} refused: must be a finite number > 0 K",
-                    shown(ambient)
-                ))
-            })?;
         }
         self.params = params;
         self.settings = settings;
@@ -531,10 +530,17 @@ impl Instance {
             let drives = match var {
                 RealVariable::PowerReference => power_input,
                 RealVariable::Frequency => self.settings.reserve.offered(),
+                RealVariable::AmbientTemperature => self.settings.thermal_model,
                 _ => !power_input,
             };
             match (var, *order) {
                 (RealVariable::Setpoint, 1) if single => slope = *value,
+                (RealVariable::AmbientTemperature, 1) if drives && *value != 0.0 => {
+                    return Err(error(format!(
+                        "d(ambientTemperature)/dt = {} refused: the ambient temperature is held over a step",
+                        shown(*value)
+                    )))
+                }
                 (RealVariable::Frequency, 1) if drives && *value != 0.0 => {
                     return Err(error(format!(
                         "d(frequency)/dt = {} refused: the frequency is held over a step (the reserves' request is constant \

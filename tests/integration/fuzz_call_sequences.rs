@@ -411,7 +411,9 @@ impl Harness {
                             Causality::Parameter if self.view.state == Step => valid = false,
                             _ => {}
                         }
-                        if !x.is_finite() {
+                        // A temperature in kelvin is positive.
+                        if !x.is_finite() || (var == RealVariable::AmbientTemperature && *x <= 0.0)
+                        {
                             valid = false;
                         }
                     }
@@ -709,16 +711,21 @@ impl Harness {
                     // of the input that drives it.
                     let input = RealVariable::from_value_reference(*vr)
                         .filter(|v| v.causality() == Causality::Input);
-                    // The frequency drives the reserves, if any are offered, and is always held.
-                    let frequency = input == Some(RealVariable::Frequency);
+                    // The frequency drives the reserves, if any are offered, the ambient
+                    // temperature the thermal model, if on; both are always held.
+                    let held = matches!(
+                        input,
+                        Some(RealVariable::Frequency | RealVariable::AmbientTemperature)
+                    );
                     let drives = input.is_some_and(|v| match v {
                         RealVariable::Frequency => self.view.settings.reserve.offered(),
+                        RealVariable::AmbientTemperature => self.view.settings.thermal_model,
                         _ => (v == RealVariable::PowerReference) == self.view.settings.power_input,
                     });
                     let hub_refuses = *order == 1
                         && *value != 0.0
                         && drives
-                        && (frequency || !self.view.single_module());
+                        && (held || !self.view.single_module());
                     let valid = self.allowed(&[Instantiated, Init, Step])
                         && input.is_some()
                         && *order >= 1
