@@ -220,6 +220,13 @@ def wine(tmp_path_factory):
     return run_windows
 
 
+#: The tests that rebuild the FMU's library in the checkout's target folder from another model
+#: description (packaging/package.py --parameters) or package the library found there
+#: (--no-build): on one worker, one after the other, or one would package what another is
+#: overwriting (seen: validation_day refused a library rebuilt meanwhile for other parameters).
+REBUILDS_THE_LIBRARY = pytest.mark.xdist_group("rebuilds-the-library")
+
+
 def pytest_itemcollected(item):
     """Under pytest-xdist's loadgroup distribution (scripts/test.sh, scripts/check.sh), the tests
     that use a module-scoped fixture of their module (an hour of co-simulation, a built site, an

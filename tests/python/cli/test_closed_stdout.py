@@ -16,7 +16,7 @@ import zipfile
 import pytest
 
 from commands import assert_quiet, run
-from conftest import ROOT
+from conftest import REBUILDS_THE_LIBRARY, ROOT
 
 VALIDATION_HEADER = (
     "time,setpoint,current_measured,current_model,voltage_measured,voltage_model,"
@@ -183,7 +183,7 @@ def closed_stdout_case(name, tmp, fmu):
         "wind_farm",
         "wind_hub",
         "grid_cosim",
-        "package",
+        pytest.param("package", marks=REBUILDS_THE_LIBRARY),
         "cross_check",
         "plot_validation",
         "shrink_png",

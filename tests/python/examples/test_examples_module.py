@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from fmpy import read_model_description
 
-from conftest import FMU_PATH, PAPER, ROOT, unlimited_step_response
+from conftest import FMU_PATH, PAPER, REBUILDS_THE_LIBRARY, ROOT, unlimited_step_response
 
 NOISE = 0.15  # current noise of the synthetic generator [A]
 TRUTH = dict(gain=0.512, rampUpLimit=0.18, voltageIntercept=36.4, ohmicResistance=0.1412)  # CampaignSpec::test_truth
@@ -111,6 +111,7 @@ def test_step_responses_match_the_closed_form(fmu_path, tmp_path):
 
 
 @pytest.mark.slow
+@REBUILDS_THE_LIBRARY
 def test_validation_day_recovers_the_truth_through_the_fmu(tmp_path):
     shipped = hashlib.sha256(FMU_PATH.read_bytes()).hexdigest() if FMU_PATH is not None else None
     out = run_example("validation_day", "--out", tmp_path, "--days", 2, "--hours", 4, "--seed", 11)

@@ -14,10 +14,10 @@ import sys
 import pytest
 from fmpy import read_model_description, simulate_fmu
 
-from conftest import ROOT
+from conftest import REBUILDS_THE_LIBRARY, ROOT
 
 # rebuilds the FMU's library from identified parameters
-pytestmark = [pytest.mark.slow]
+pytestmark = [pytest.mark.slow, REBUILDS_THE_LIBRARY]
 
 PACKAGE = ROOT / "packaging" / "package.py"
 
