@@ -439,7 +439,7 @@ fn parameter_values(p: &Parameters) -> [f64; 11] {
 
 /// Parameters in the order of [`parameter_values`].
 /// The thermal parameters' Real values in their serialised order (nCells is written before).
-fn thermal_values(t: &ThermalParameters) -> [f64; 8] {
+fn thermal_values(t: &ThermalParameters) -> [f64; 9] {
     [
         t.initial_temperature,
         t.heat_capacity,
@@ -449,12 +449,13 @@ fn thermal_values(t: &ThermalParameters) -> [f64; 8] {
         t.nominal_temperature,
         t.voltage_temperature_coefficient,
         t.resistance_temperature_coefficient,
+        t.warm_start_temperature,
     ]
 }
 
 fn read_thermal(r: &mut Reader) -> Result<ThermalParameters, String> {
     let n_cells = r.u32()? as i32;
-    let mut x = [0.0; 8];
+    let mut x = [0.0; 9];
     for v in x.iter_mut() {
         *v = r.finite()?;
     }
@@ -468,6 +469,7 @@ fn read_thermal(r: &mut Reader) -> Result<ThermalParameters, String> {
         nominal_temperature: x[5],
         voltage_temperature_coefficient: x[6],
         resistance_temperature_coefficient: x[7],
+        warm_start_temperature: x[8],
     })
 }
 

@@ -129,6 +129,7 @@ pub fn module_parameter(var: RealVariable) -> Option<ModuleParameter> {
         | NominalTemperature
         | VoltageTemperatureCoefficient
         | ResistanceTemperatureCoefficient
+        | WarmStartTemperature
         | AmbientTemperature
         | StackTemperature
         | CoolingPower => None,
@@ -166,6 +167,7 @@ fn setting_mut(settings: &mut PlantSettings, var: RealVariable) -> Option<&mut f
         ResistanceTemperatureCoefficient => {
             Some(&mut settings.thermal.resistance_temperature_coefficient)
         }
+        WarmStartTemperature => Some(&mut settings.thermal.warm_start_temperature),
         Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance
         | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Setpoint
         | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower
@@ -230,6 +232,7 @@ pub fn real_input_mut(inputs: &mut Inputs, var: RealVariable) -> Option<&mut f64
         | NominalTemperature
         | VoltageTemperatureCoefficient
         | ResistanceTemperatureCoefficient
+        | WarmStartTemperature
         | StackTemperature
         | CoolingPower => None,
     }
@@ -293,6 +296,7 @@ pub fn real_output(var: RealVariable, plant: &Plant, reserve_request: f64) -> Op
         | NominalTemperature
         | VoltageTemperatureCoefficient
         | ResistanceTemperatureCoefficient
+        | WarmStartTemperature
         | AmbientTemperature => None,
     }
 }

@@ -323,12 +323,18 @@ impl UnitState {
                     self.cool(thermal, left, &mut totals);
                     return totals;
                 }
-                (Idle, Run(_)) => {
-                    self.enter(timed(Curve, op.cold_start_time));
-                    totals.starts += 1;
-                }
-                (Standby, Run(_)) => {
-                    self.enter(timed(Curve, op.warm_start_time));
+                (Idle | Standby, Run(_)) => {
+                    let warm = match thermal {
+                        // With the stack temperature: warm if the stack is warm enough.
+                        Some(b) => self.temperature >= b.thermal.warm_start_temperature,
+                        None => self.state == Standby,
+                    };
+                    let duration = if warm {
+                        op.warm_start_time
+                    } else {
+                        op.cold_start_time
+                    };
+                    self.enter(timed(Curve, duration));
                     totals.starts += 1;
                 }
                 (Curve, Stop) => self.enter(UnitState::idle()),

@@ -43,6 +43,9 @@ pub struct ThermalParameters {
     pub voltage_temperature_coefficient: f64,
     /// kR: change of the ohmic resistance per kelvin [Ω/K].
     pub resistance_temperature_coefficient: f64,
+    /// A module whose stack is at least this warm starts warm (warmStartTime), else cold
+    /// (coldStartTime), whatever its state [K].
+    pub warm_start_temperature: f64,
 }
 
 /// Shortest thermal time constant Rth·C accepted [s]: a stack's is minutes to hours; a
@@ -60,7 +63,8 @@ impl Default for ThermalParameters {
     /// - Ts = Tn = 328.15 K (55 °C, the temperature of Table I's polarisation curve);
     ///   Qmax = 1 kW; start at 15 °C;
     /// - kV = −0.046 V/K (−2 mV/K per cell) and kR = −1.5 mΩ/K (−1 %/K of R): the few mV/K
-    ///   per cell, negative, of alkaline and AEM cells in the literature.
+    ///   per cell, negative, of alkaline and AEM cells in the literature;
+    /// - a warm start from 40 °C up (half-way between a cold stack and the setpoint).
     fn default() -> Self {
         ThermalParameters {
             initial_temperature: 288.15,
@@ -72,6 +76,7 @@ impl Default for ThermalParameters {
             nominal_temperature: 328.15,
             voltage_temperature_coefficient: -0.046,
             resistance_temperature_coefficient: -0.0015,
+            warm_start_temperature: 313.15,
         }
     }
 }
@@ -85,6 +90,7 @@ impl ThermalParameters {
             ("thermalResistance", self.thermal_resistance, "K/W"),
             ("coolingSetpoint", self.cooling_setpoint, "K"),
             ("nominalTemperature", self.nominal_temperature, "K"),
+            ("warmStartTemperature", self.warm_start_temperature, "K"),
         ];
         for (name, value, unit) in positive {
             if !(value.is_finite() && value > 0.0) {

@@ -168,3 +168,55 @@ fn a_restored_thermal_hub_continues_bit_for_bit() {
     bad.groups[0].unit.temperature = -1.0;
     assert!(twin.restore(bad).is_err());
 }
+
+/// Time until the one module of `hub` is Steady under `demand`, in steps of 1 s (at most 1000).
+fn start_time(hub: &mut Hub, demand: Demand) -> u32 {
+    (1..=1000)
+        .find(|_| {
+            hub.step(demand, 1.0).unwrap();
+            hub.count_in(OperatingState::Steady) == 1
+        })
+        .unwrap_or(u32::MAX)
+}
+
+#[test]
+fn a_warm_stack_starts_warm_and_a_cold_one_cold_whatever_the_state() {
+    let p = Parameters::default();
+    let op = OperationParameters::default();
+    // Off (Idle) but still warm: a warm start.
+    let warm = ThermalParameters {
+        initial_temperature: 328.15,
+        ..ThermalParameters::default()
+    };
+    let mut hub = Hub::new(
+        p,
+        config(1, DispatchPolicy::Sequential, BelowMinimum::Off, warm),
+        Demand::Setpoint(80.0),
+    )
+    .unwrap();
+    hub.step(Demand::Setpoint(0.0), 120.0).unwrap();
+    assert_eq!(hub.count_in(OperatingState::Idle), 1);
+    assert!(hub.readings().temperature > warm.warm_start_temperature);
+    assert_eq!(
+        start_time(&mut hub, Demand::Setpoint(80.0)) as f64,
+        op.warm_start_time
+    );
+    // In Standby but colder than the warm-start temperature: a cold start.
+    let cold = ThermalParameters {
+        warm_start_temperature: 350.0,
+        ..warm
+    };
+    let mut hub = Hub::new(
+        p,
+        config(1, DispatchPolicy::Sequential, BelowMinimum::Standby, cold),
+        Demand::Setpoint(80.0),
+    )
+    .unwrap();
+    hub.step(Demand::Setpoint(0.0), 10.0).unwrap();
+    assert_eq!(hub.count_in(OperatingState::Standby), 1);
+    assert_eq!(
+        start_time(&mut hub, Demand::Setpoint(80.0)) as f64,
+        op.cold_start_time
+    );
+    assert_eq!(hub.totals().starts, 1);
+}
