@@ -243,7 +243,7 @@ impl Hub {
                     thermal,
                     voltage_intercept: params.voltage_intercept,
                     ohmic_resistance: params.ohmic_resistance,
-                    ambient: super::plant::AMBIENT_START,
+                    ambient: super::thermal::AMBIENT_START,
                 }),
                 params,
             });

@@ -25,13 +25,9 @@ use super::parameters::{ParameterError, Parameters};
 use super::reserve::{FrequencyResponse, ReserveSettings};
 use super::snapshot_error::SnapshotError;
 use super::spread::spread_parameters;
-use super::thermal::ThermalParameters;
+use super::thermal::{ThermalParameters, AMBIENT_START};
 
 const SECONDS_PER_HOUR: f64 = 3600.0;
-
-/// Ambient temperature a plant starts with until [`Plant::set_ambient_temperature`] [K]
-/// (15 °C, the FMU's start value of `ambientTemperature`).
-pub const AMBIENT_START: f64 = 288.15;
 
 /// Most modules with individual parameter sets (parameterSpread > 0): each set costs memory.
 pub const MAX_INDIVIDUAL_MODULES: i32 = 1_000_000;

@@ -17,6 +17,10 @@ use super::parameters::ParameterError;
 
 pub mod step;
 
+/// Ambient temperature a stack sees until it is told another [K] (15 °C, the FMU's start value
+/// of `ambientTemperature`).
+pub const AMBIENT_START: f64 = 288.15;
+
 /// Thermoneutral voltage of one water-electrolysis cell (higher heating value) [V].
 pub const THERMONEUTRAL_CELL_VOLTAGE: f64 = 1.481;
 

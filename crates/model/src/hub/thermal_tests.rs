@@ -33,7 +33,7 @@ fn an_equal_hub_is_n_thermal_modules() {
         Demand::Setpoint(70.0),
     )
     .unwrap();
-    let mut one = Module::with_thermal(p, t, crate::plant::AMBIENT_START, 70.0).unwrap();
+    let mut one = Module::with_thermal(p, t, crate::thermal::AMBIENT_START, 70.0).unwrap();
     for (k, u) in [95.0, 60.0, 100.0, 75.0, 100.0].iter().enumerate() {
         let h = 300.0 + 17.0 * k as f64;
         hub.step(Demand::Setpoint(*u), h).unwrap();
