@@ -479,7 +479,10 @@ mod tests {
         let (params, settings, inputs) = start_values();
         assert_eq!(params, Parameters::default());
         assert_eq!(settings, PlantSettings::default());
-        assert_eq!(inputs.ambient_temperature, aem_model::thermal::AMBIENT_START);
+        assert_eq!(
+            inputs.ambient_temperature,
+            aem_model::thermal::AMBIENT_START
+        );
     }
 
     #[test]
