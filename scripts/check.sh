@@ -23,7 +23,7 @@ phase .venv/bin/ruff format --check --quiet python tests benches packaging fuzz 
 phase cargo clippy --quiet --workspace --all-targets --release -- -D warnings
 phase cargo test --quiet -p aem-model -p aem-identify --lib   # debug assertions and overflow checks on
 phase .venv/bin/python packaging/package.py --platforms linux64 --native
-phase cargo test --quiet --release --test integration   # the C ABI in process and the packaged .fmu
+phase cargo test --quiet --release --test integration --test robustness_report   # C ABI, packaged .fmu, docs/robustness.md
 phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup -p no:cacheprovider \
   -m "not slow and not wine and not cosim and not cluster and not serial"
 echo "check.sh: passed in $SECONDS s" >&2
