@@ -395,7 +395,11 @@ impl Hub {
         let n = self.target_count(demand);
         // The stack temperature's integrator may refuse a step (in theory: its tolerances are
         // met at any step size the time allows); the hub is then put back as it was.
-        let before = self.config.thermal.is_some().then(|| self.snapshot());
+        let before = self
+            .config
+            .thermal
+            .is_some()
+            .then(|| (self.groups.clone(), self.running_target));
         let mut totals = self.totals;
         if self.rebalance(n) {
             self.settle(&mut totals);
@@ -414,9 +418,14 @@ impl Hub {
             let survey = self.surveyed.take().unwrap_or_else(|| self.survey());
             let piece = survey.next_event.filter(|t| *t < left).unwrap_or(left);
             let after = self.advance_groups(demand, n, &survey, piece, piece == h, &mut totals);
-            if let (Some(failure), Some(before)) = (after.failure, before.clone()) {
-                self.restore(before)
-                    .expect("a snapshot of this hub restores into it");
+            if let Some(failure) = after.failure {
+                if let Some((groups, running_target)) = before {
+                    self.groups = groups;
+                    self.running_target = running_target;
+                    self.aligned = self.is_aligned();
+                    self.surveyed = None;
+                    self.read = None;
+                }
                 return Err(StepError::Thermal(failure));
             }
             self.surveyed = Some(after);

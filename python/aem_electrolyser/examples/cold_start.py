@@ -30,8 +30,17 @@ STEP = 10.0
 SCHEDULE = [(0.0, 60.0), (3600.0, 100.0)]
 #: Ambient temperature [K] at dawn and at the end (linear in between).
 AMBIENT = (5.0 + KELVIN, 8.0 + KELVIN)
-OUTPUTS = ["setpoint", "ambientTemperature", "stackTemperature", "current", "voltage", "power", "coolingPower"]
-OUTPUTS += ["energy", "h2Produced"]
+OUTPUTS = [
+    "setpoint",
+    "ambientTemperature",
+    "stackTemperature",
+    "current",
+    "voltage",
+    "power",
+    "coolingPower",
+    "energy",
+    "h2Produced",
+]
 
 
 def input_signal(model_description):

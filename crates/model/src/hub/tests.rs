@@ -1,7 +1,7 @@
 use super::*;
 use crate::Module;
 
-fn config(n: u32, policy: DispatchPolicy, below: BelowMinimum) -> HubConfig {
+pub(super) fn config(n: u32, policy: DispatchPolicy, below: BelowMinimum) -> HubConfig {
     HubConfig {
         n_modules: n,
         policy,

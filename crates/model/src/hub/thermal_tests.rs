@@ -5,6 +5,7 @@ use super::*;
 use crate::thermal::ThermalParameters;
 use crate::Module;
 
+/// The hub tests' configuration with every module's stack temperature modelled.
 fn config(
     n: u32,
     policy: DispatchPolicy,
@@ -12,14 +13,8 @@ fn config(
     thermal: ThermalParameters,
 ) -> HubConfig {
     HubConfig {
-        n_modules: n,
-        policy,
-        operation: OperationParameters {
-            below_minimum: below,
-            ..Default::default()
-        },
         thermal: Some(thermal),
-        ..Default::default()
+        ..super::tests::config(n, policy, below)
     }
 }
 

@@ -210,7 +210,7 @@ fn step_size_independence(heat_capacity: f64) {
         let mut out = vec![];
         for k in 0..24 {
             let start = k as f64 * 600.0;
-            let (end, _) = run_from(&b, t, move |x| moving(start + x), h, per);
+            let (end, _) = run(&b, t, move |x| moving(start + x), false, h, per);
             t = end;
             out.push(t);
         }
@@ -229,17 +229,6 @@ fn step_size_independence(heat_capacity: f64) {
             );
         }
     }
-}
-
-/// [`run`] along a moving current.
-fn run_from(
-    b: &HeatBalance,
-    t0: f64,
-    current: impl Fn(f64) -> f64 + Copy,
-    h: f64,
-    steps: usize,
-) -> (f64, ThermalStep) {
-    run(b, t0, current, false, h, steps)
 }
 
 #[test]
