@@ -16,6 +16,7 @@
 //! - `Rotation`: the count of `Sequential`; which modules run is chosen by running hours
 //!   and starts (see [`crate::model::hub`]).
 
+use super::grid::GridParameters;
 use super::parameters::{ParameterError, Parameters};
 use super::select::at_least;
 
@@ -152,6 +153,61 @@ pub fn power_at_setpoint(params: &Parameters, setpoint: f64) -> f64 {
     (params.voltage_intercept + params.ohmic_resistance * i) * i
 }
 
+/// A running module's steady power at a setpoint, on the side a power reference means: the
+/// stack's (V0 + R·I)·I, or on the grid side ((V0 + Vs) + (R + Rs)·I)·I + P0 + P_aux with the
+/// supply's losses and the auxiliaries (see [`crate::grid`]); I = K·u.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PowerCurve {
+    /// Power per ampere at no current [V].
+    voltage: f64,
+    /// Power per ampere squared [Ω].
+    resistance: f64,
+    /// Power at no current [W].
+    offset: f64,
+    /// K [A/%].
+    gain: f64,
+}
+
+impl PowerCurve {
+    /// The curve a power reference follows for a module of `params` with `grid`.
+    pub fn new(params: &Parameters, grid: &GridParameters) -> Self {
+        let stack = PowerCurve {
+            voltage: params.voltage_intercept,
+            resistance: params.ohmic_resistance,
+            offset: 0.0,
+            gain: params.gain,
+        };
+        if !grid.grid_side_reference {
+            return stack;
+        }
+        PowerCurve {
+            voltage: stack.voltage + grid.supply_loss_voltage,
+            resistance: stack.resistance + grid.supply_loss_resistance,
+            offset: grid.supply_no_load_loss + grid.auxiliary_power,
+            gain: stack.gain,
+        }
+    }
+
+    /// Steady power at `setpoint` [%] [W] ([`power_at_setpoint`] on the stack side).
+    #[inline]
+    pub fn power(&self, setpoint: f64) -> f64 {
+        let i = self.gain * setpoint;
+        (self.voltage + self.resistance * i) * i + self.offset
+    }
+
+    /// Setpoint [%] at which the steady power is `power` [W] ([`setpoint_for_power`] on the
+    /// stack side); 0 below the power at no current.
+    #[inline]
+    pub fn setpoint(&self, power: f64) -> f64 {
+        setpoint_at_power(
+            self.voltage,
+            self.resistance,
+            self.gain,
+            power - self.offset,
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -161,6 +217,47 @@ mod tests {
         max: 100.0,
         band: 5.0,
     };
+
+    #[test]
+    fn the_stack_side_curve_is_the_polarisation_curve_bit_for_bit() {
+        let p = Parameters::default();
+        let lossy = GridParameters {
+            auxiliary_power: 150.0,
+            supply_no_load_loss: 40.0,
+            supply_loss_voltage: 0.8,
+            supply_loss_resistance: 0.002,
+            grid_side_reference: false,
+        };
+        let curve = PowerCurve::new(&p, &lossy);
+        for u in [0.0, 1.0, 60.0, 77.7, 100.0] {
+            assert_eq!(curve.power(u).to_bits(), power_at_setpoint(&p, u).to_bits());
+            let w = power_at_setpoint(&p, u);
+            assert_eq!(
+                curve.setpoint(w).to_bits(),
+                setpoint_for_power(&p, w).to_bits()
+            );
+        }
+    }
+
+    #[test]
+    fn the_grid_side_curve_adds_the_losses_and_auxiliaries_and_inverts() {
+        let p = Parameters::default();
+        let grid = GridParameters {
+            auxiliary_power: 150.0,
+            supply_no_load_loss: 40.0,
+            supply_loss_voltage: 0.8,
+            supply_loss_resistance: 0.002,
+            grid_side_reference: true,
+        };
+        let curve = PowerCurve::new(&p, &grid);
+        for u in [1.0, 60.0, 77.7, 100.0] {
+            let i = p.gain * u;
+            let want = power_at_setpoint(&p, u) + grid.running_extra(i);
+            assert!((curve.power(u) - want).abs() < 1e-10 * want);
+            assert!((curve.setpoint(curve.power(u)) - u).abs() < 1e-12);
+        }
+        assert_eq!(curve.setpoint(100.0), 0.0, "below the no-current power");
+    }
 
     #[test]
     fn power_inversion_is_the_inverse_of_the_polarisation_curve() {

@@ -13,9 +13,7 @@
 
 use std::cmp::Ordering;
 
-use super::dispatch::{
-    power_at_setpoint, running_count, setpoint_for_power, Demand, DispatchPolicy, Limits,
-};
+use super::dispatch::{running_count, Demand, DispatchPolicy, Limits, PowerCurve};
 use super::dynamics::{CurrentDynamics, StepFactors};
 use super::lanes::{LaneBank, Share, LANES};
 use super::module::StepError;
@@ -76,6 +74,8 @@ struct ModuleType {
     h2_per_coulomb: f64,
     /// The stack's heat balance with this set's polarisation curve, if modelled.
     thermal: Option<HeatBalance>,
+    /// A running module's steady power at a setpoint, as a power reference means it.
+    curve: PowerCurve,
 }
 
 /// `count` modules that behave identically.
@@ -108,6 +108,11 @@ pub struct HubTotals {
     pub running: f64,
     /// Starts summed over modules.
     pub starts: u64,
+    /// Charge ∫ΣI dt [A·s] and ∫ΣI² dt [A²·s] summed over modules.
+    pub charge: f64,
+    pub current_squared: f64,
+    /// Starting (Curve) time summed over modules [s].
+    pub starting: f64,
 }
 
 impl HubTotals {
@@ -116,6 +121,9 @@ impl HubTotals {
         self.energy += part.energy;
         self.h2_produced += part.h2_produced;
         self.running += part.running;
+        self.charge += part.charge;
+        self.current_squared += part.current_squared;
+        self.starting += part.starting;
         self.starts = self.starts.saturating_add(part.starts);
     }
 }
@@ -230,8 +238,10 @@ impl Hub {
                 });
             }
             let op = &config.operation;
+            let curve = PowerCurve::new(&params, &op.grid);
             max_power += count as f64
-                * power_at_setpoint(&params, params.max_setpoint)
+                * curve
+                    .power(params.max_setpoint)
                     .max(op.start_power)
                     .max(op.standby_power);
             types.push(ModuleType {
@@ -245,6 +255,7 @@ impl Hub {
                     ohmic_resistance: params.ohmic_resistance,
                     ambient: super::thermal::AMBIENT_START,
                 }),
+                curve,
                 params,
             });
         }
@@ -259,14 +270,11 @@ impl Hub {
         let power_range = types.iter().fold((0.0, 0.0), |(lo, hi), ty| {
             let n = ty.count as f64;
             let min = if stays {
-                n * power_at_setpoint(&ty.params, ty.params.min_setpoint)
+                n * ty.curve.power(ty.params.min_setpoint)
             } else {
                 0.0
             };
-            (
-                lo + min,
-                hi + n * power_at_setpoint(&ty.params, ty.params.max_setpoint),
-            )
+            (lo + min, hi + n * ty.curve.power(ty.params.max_setpoint))
         });
         let mut hub = Hub {
             config,
@@ -278,8 +286,11 @@ impl Hub {
             power_range,
             order: Vec::new(),
             lanes: None,
-            // The lanes step the plain dynamics only, without the stack temperature.
-            lanes_enabled: !config.compensation && config.thermal.is_none(),
+            // The lanes step the plain dynamics only, without the stack temperature, and share
+            // a power reference by the stack's curve.
+            lanes_enabled: !config.compensation
+                && config.thermal.is_none()
+                && !config.operation.grid.grid_side_reference,
             aligned: false,
             partials: Vec::new(),
             surveyed: None,
@@ -337,9 +348,10 @@ impl Hub {
                 band: self.config.hysteresis,
             },
             Demand::Power(_) => {
-                let max = power_at_setpoint(p, p.max_setpoint);
+                let curve = &self.types[0].curve;
+                let max = curve.power(p.max_setpoint);
                 Limits {
-                    min: power_at_setpoint(p, p.min_setpoint),
+                    min: curve.power(p.min_setpoint),
                     max,
                     band: self.config.hysteresis / 100.0 * max,
                 }
@@ -371,7 +383,7 @@ impl Hub {
         match demand {
             Demand::Setpoint(u) if running == self.config.n_modules => u,
             Demand::Setpoint(u) => u * self.config.n_modules as f64 / running as f64,
-            Demand::Power(p) => setpoint_for_power(&self.types[kind].params, p / running as f64),
+            Demand::Power(p) => self.types[kind].curve.setpoint(p / running as f64),
         }
     }
 
@@ -694,9 +706,16 @@ impl Hub {
         &self.types[kind].params
     }
 
-    /// The steady stack power the operating window allows the whole hub [W]: every module at
-    /// maxSetpoint at most; at least every module at minSetpoint where modules never stop
-    /// (belowMinimum = stay at minimum), else 0 (start-up and standby power aside).
+    /// The steady power of a running module of parameter set `kind` as a power reference
+    /// means it (stack or grid side).
+    pub fn power_curve(&self, kind: usize) -> &PowerCurve {
+        &self.types[kind].curve
+    }
+
+    /// The steady power the operating window allows the whole hub [W] (stack or grid side, as
+    /// a power reference means it): every module at maxSetpoint at most; at least every module
+    /// at minSetpoint where modules never stop (belowMinimum = stay at minimum), else 0
+    /// (start-up and standby power aside).
     pub fn power_range(&self) -> (f64, f64) {
         self.power_range
     }
@@ -807,6 +826,8 @@ pub struct HubReadings {
     pub h2_flow: f64,
     /// Sum of stack currents [A].
     pub current: f64,
+    /// Sum of squared stack currents ΣI² [A²].
+    pub current_squared: f64,
     /// Mean stack voltage V0 + R·I over Steady modules [V]; 0 when none is Steady.
     pub voltage: f64,
     /// Mean stack temperature over the modules [K] (the thermal model's; Tn without it).

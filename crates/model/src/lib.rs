@@ -13,6 +13,7 @@
 //! - [`spread`]: seeded per-module parameter sets.
 //! - [`thermal`]: the stack temperature (optional): heat balance, thermostat, exact or
 //!   error-controlled steps.
+//! - [`grid`]: the supply's losses and the auxiliaries (optional): what the grid sees.
 //! - [`operation`]: a module's operating states (idle, curve, steady, standby, blowdown).
 //! - [`plant`]: what an FMU instance simulates: one module or a hub, with its settings;
 //!   [`events`]: what it reports while it runs (window excursions, reserve shortfalls).
@@ -27,6 +28,7 @@ mod current_path;
 pub mod dispatch;
 pub mod dynamics;
 pub mod events;
+pub mod grid;
 pub mod hub;
 pub mod lanes;
 pub mod module;
@@ -44,6 +46,7 @@ pub mod thermal;
 pub use dispatch::{Demand, DispatchPolicy};
 pub use dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
 pub use events::{EventState, PlantEvent};
+pub use grid::GridParameters;
 pub use hub::{Hub, HubConfig};
 pub use module::{Module, ModuleState, StepError};
 pub use operation::{BelowMinimum, OperatingState, OperationParameters};

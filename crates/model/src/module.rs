@@ -16,6 +16,7 @@ use std::fmt;
 
 use super::current_path::{HeldSetpoint, LinearSetpoint};
 use super::dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
+use super::grid::{CurrentSums, GridParameters};
 use super::parameters::{ParameterError, Parameters};
 use super::shown;
 use super::thermal::step::{self as thermal_step, CurrentPath, ThermalError, ThermalStep};
@@ -36,6 +37,9 @@ pub struct ModuleState {
     pub h2_produced: f64,
     /// Stack temperature [K] (the polarisation curve's, Tn, without the thermal model).
     pub temperature: f64,
+    /// Charge ∫I dt [A·s] and ∫I² dt [A²·s] since the start (for the supply's losses).
+    pub charge: f64,
+    pub current_squared: f64,
 }
 
 /// A request the model refuses; the module is left unchanged.
@@ -103,6 +107,8 @@ pub struct Module {
     h2_per_coulomb: f64,
     /// The stack's heat balance, if the temperature is modelled.
     thermal: Option<HeatBalance>,
+    /// The supply's losses and the auxiliaries.
+    grid: GridParameters,
 }
 
 impl Module {
@@ -127,11 +133,20 @@ impl Module {
                 energy: 0.0,
                 h2_produced: 0.0,
                 temperature: ThermalParameters::default().nominal_temperature,
+                charge: 0.0,
+                current_squared: 0.0,
             },
             factors: StepFactors::default(),
             h2_per_coulomb: params.h2_coefficient / SECONDS_PER_HOUR,
             thermal: None,
+            grid: GridParameters::default(),
         })
+    }
+
+    /// The same module with the supply's losses and the auxiliaries `grid` (what
+    /// [`Module::ac_power`] and [`Module::ac_energy`] add; the stack is unchanged).
+    pub fn with_grid(self, grid: GridParameters) -> Self {
+        Module { grid, ..self }
     }
 
     /// [`Module::new`] with the stack temperature modelled: `thermal` parameters, ambient
@@ -325,6 +340,8 @@ impl Module {
             temperature = q.temperature;
         }
         let h2_produced = self.state.h2_produced + self.h2_per_coulomb * ints.charge;
+        let charge = self.state.charge + ints.charge;
+        let current_squared = self.state.current_squared + ints.current_squared;
         let time = self.state.time + h;
         let states_finite =
             current.current.is_finite() && current.z1.is_finite() && current.z2.is_finite();
@@ -337,6 +354,8 @@ impl Module {
             energy,
             h2_produced,
             temperature,
+            charge,
+            current_squared,
         };
         Ok(())
     }
@@ -405,6 +424,30 @@ impl Module {
     /// Hydrogen produced since the start [Nl].
     pub fn h2_produced(&self) -> f64 {
         self.state.h2_produced
+    }
+
+    /// Grid power [W]: P + P0 + Vs·I + Rs·I² + P_aux (see [`crate::grid`]).
+    pub fn ac_power(&self) -> f64 {
+        let i = self.current();
+        let sums = CurrentSums {
+            running: 1.0,
+            starting: 0.0,
+            current: i,
+            current_squared: i * i,
+        };
+        self.grid.ac_power(self.power(), &sums)
+    }
+
+    /// Grid energy since the start [J]: E + P0·t + Vs·∫I dt + Rs·∫I² dt + P_aux·t, exact.
+    pub fn ac_energy(&self) -> f64 {
+        let s = &self.state;
+        let sums = CurrentSums {
+            running: s.time,
+            starting: 0.0,
+            current: s.charge,
+            current_squared: s.current_squared,
+        };
+        self.grid.ac_energy(s.energy, &sums)
     }
 }
 

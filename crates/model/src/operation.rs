@@ -34,6 +34,7 @@ use std::fmt;
 
 use super::current_path::{HeldSetpoint, NoCurrent};
 use super::dynamics::{CurrentDynamics, CurrentState, StepFactors};
+use super::grid::GridParameters;
 use super::parameters::{ParameterError, Parameters};
 use super::thermal::step::{self as thermal_step, CurrentPath, ThermalError};
 use super::thermal::HeatBalance;
@@ -114,6 +115,8 @@ pub struct OperationParameters {
     pub stop_duration: f64,
     /// Where a module asked for less than minSetpoint goes.
     pub below_minimum: BelowMinimum,
+    /// The supply's losses and the auxiliaries (zero by default: the grid sees P).
+    pub grid: GridParameters,
 }
 
 impl Default for OperationParameters {
@@ -126,6 +129,7 @@ impl Default for OperationParameters {
             standby_duration: 3600.0,
             stop_duration: 60.0,
             below_minimum: BelowMinimum::Minimum,
+            grid: GridParameters::default(),
         }
     }
 }
@@ -156,7 +160,7 @@ impl OperationParameters {
                 requirement: format!("must not exceed coldStartTime = {} s", self.cold_start_time),
             });
         }
-        Ok(())
+        self.grid.validate()
     }
 }
 
@@ -189,8 +193,12 @@ pub struct UnitTotals {
     pub energy: f64,
     /// Charge through the stack ∫I dt [A·s].
     pub charge: f64,
+    /// ∫I² dt [A²·s].
+    pub current_squared: f64,
     /// Time spent Steady [s].
     pub running: f64,
+    /// Time spent starting (Curve) [s].
+    pub starting: f64,
     /// Starts (entries into Curve).
     pub starts: u32,
     /// Why the stack temperature could not be advanced, if it could not (the step is then
@@ -339,7 +347,10 @@ impl UnitState {
                 }
                 (Curve, Stop) => self.enter(UnitState::idle()),
                 (Curve, Run(_)) => {
-                    if self.wait(op.start_power, thermal, &mut left, &mut totals) {
+                    let before = left;
+                    let done = self.wait(op.start_power, thermal, &mut left, &mut totals);
+                    totals.starting += before - left;
+                    if done {
                         return totals;
                     }
                     // Start complete: current appears at K·minSetpoint in steady state.
@@ -415,6 +426,7 @@ impl UnitState {
         totals.energy +=
             params.voltage_intercept * ints.charge + params.ohmic_resistance * ints.current_squared;
         totals.charge += ints.charge;
+        totals.current_squared += ints.current_squared;
         totals.running += length;
     }
 

@@ -17,7 +17,8 @@
 //! F = F_hub/N [Nl/h], E = E_hub/N [J], H = H_hub/N [Nl]; V is the mean of V0 + R·I over
 //! the modules carrying current [V] (0 when none does).
 
-use super::dispatch::{power_at_setpoint, setpoint_for_power, Demand, DispatchPolicy};
+use super::dispatch::{Demand, DispatchPolicy, PowerCurve};
+use super::grid::{CurrentSums, GridParameters};
 use super::hub::{Hub, HubConfig, HubReadings, HubSnapshot, H2_KG_PER_NL};
 use super::module::{Module, ModuleState, StepError};
 use super::operation::{BelowMinimum, OperatingState, OperationParameters};
@@ -67,6 +68,8 @@ pub struct PlantSettings {
     pub thermal_model: bool,
     /// The stack's thermal parameters (used with `thermal_model`).
     pub thermal: ThermalParameters,
+    /// The supply's losses, the auxiliaries, and the side a power reference means.
+    pub grid: GridParameters,
 }
 
 impl Default for PlantSettings {
@@ -91,6 +94,7 @@ impl Default for PlantSettings {
             reserve: ReserveSettings::default(),
             thermal_model: false,
             thermal: ThermalParameters::default(),
+            grid: GridParameters::default(),
         }
     }
 }
@@ -149,6 +153,7 @@ impl PlantSettings {
                 standby_duration: self.standby_duration,
                 stop_duration: self.stop_duration,
                 below_minimum: BelowMinimum::from_code(self.below_minimum as i64)?,
+                grid: self.grid,
             },
             compensation: self.reserve.compensation,
             thermal: None,
@@ -247,15 +252,15 @@ impl Plant {
         if let (Some(thermal), true, None) =
             (config.thermal, config.is_single_module(), module_sets)
         {
-            return Ok(Plant::Module(Module::with_thermal(
-                params,
-                thermal,
-                AMBIENT_START,
-                setpoint,
-            )?));
+            return Ok(Plant::Module(
+                Module::with_thermal(params, thermal, AMBIENT_START, setpoint)?
+                    .with_grid(config.hub.operation.grid),
+            ));
         }
         if config.is_single_module() && module_sets.is_none() {
-            return Ok(Plant::Module(Module::new(params, setpoint)?));
+            return Ok(Plant::Module(
+                Module::new(params, setpoint)?.with_grid(config.hub.operation.grid),
+            ));
         }
         let demand = config.demand(setpoint, power_reference);
         let hub = if let Some(sets) = module_sets {
@@ -411,11 +416,8 @@ impl Plant {
         match (config.demand(setpoint, power_reference), self) {
             (Demand::Power(p), _) => Demand::Power(p + request),
             (Demand::Setpoint(u), Plant::Hub(hub, _)) => {
-                let (p0, n) = (hub.parameter_set(0), self.modules());
-                Demand::Setpoint(setpoint_for_power(
-                    p0,
-                    power_at_setpoint(p0, u.max(0.0)) + request / n,
-                ))
+                let (curve, n) = (hub.power_curve(0), self.modules());
+                Demand::Setpoint(curve.setpoint(curve.power(u.max(0.0)) + request / n))
             }
             (demand, Plant::Module(_)) => demand,
         }
@@ -458,7 +460,8 @@ impl Plant {
         let (baseline, lo, hi) = match self {
             Plant::Module(m) => {
                 let p = m.parameters();
-                let power = |u: f64| power_at_setpoint(p, u);
+                let curve = PowerCurve::new(p, &config.hub.operation.grid);
+                let power = |u: f64| curve.power(u);
                 (
                     power(p.clamp_setpoint(setpoint)),
                     power(p.min_setpoint),
@@ -469,9 +472,7 @@ impl Plant {
                 let (lo, hi) = hub.power_range();
                 let baseline = match config.demand(setpoint, power_reference) {
                     Demand::Power(p) => p,
-                    Demand::Setpoint(u) => {
-                        self.modules() * power_at_setpoint(hub.parameter_set(0), u.max(0.0))
-                    }
+                    Demand::Setpoint(u) => self.modules() * hub.power_curve(0).power(u.max(0.0)),
                 };
                 (baseline, lo, hi)
             }
@@ -558,6 +559,48 @@ impl Plant {
         match self {
             Plant::Module(m) => m.power(),
             Plant::Hub(_, r) => r.power,
+        }
+    }
+
+    /// What the grid sees of the plant now [W]: the electric power with the supply's losses
+    /// and the auxiliaries (see [`crate::grid`]).
+    pub fn hub_ac_power(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.ac_power(),
+            Plant::Hub(hub, r) => {
+                let steady = r.counts[OperatingState::Steady.code() as usize];
+                let starting = r.counts[OperatingState::Curve.code() as usize];
+                let sums = CurrentSums {
+                    running: steady as f64,
+                    starting: starting as f64,
+                    current: r.current,
+                    current_squared: r.current_squared,
+                };
+                hub.config().operation.grid.ac_power(r.power, &sums)
+            }
+        }
+    }
+
+    /// Grid power per module [W].
+    pub fn ac_power(&self) -> f64 {
+        self.hub_ac_power() / self.modules()
+    }
+
+    /// Grid energy of the plant since the start [J]: the electric energy with the supply's
+    /// losses and the auxiliaries', exact (see [`crate::grid`]).
+    pub fn hub_ac_energy(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.ac_energy(),
+            Plant::Hub(hub, _) => {
+                let t = hub.totals();
+                let sums = CurrentSums {
+                    running: t.running,
+                    starting: t.starting,
+                    current: t.charge,
+                    current_squared: t.current_squared,
+                };
+                hub.config().operation.grid.ac_energy(t.energy, &sums)
+            }
         }
     }
 
@@ -675,5 +718,7 @@ fn round_robin(sets: &[Parameters], n: u32) -> Result<Vec<(Parameters, u32)>, Pa
         .collect())
 }
 
+#[cfg(test)]
+mod grid_tests;
 #[cfg(test)]
 mod tests;

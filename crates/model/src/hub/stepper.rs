@@ -1,7 +1,6 @@
 //! One piece of a hub's step, group by group (the scalar path) or four groups at a time
 //! from the lanes' outcomes; both add to a chunk's [`Tally`] with the same arithmetic.
 
-use super::super::dispatch::setpoint_for_power;
 use super::super::dynamics::CurrentState;
 use super::super::lanes::{Outcomes, Share, Visit, LANES};
 use super::super::operation::{Command, OperatingState, OperationParameters, UnitTotals};
@@ -29,7 +28,7 @@ impl Stepper {
             (false, ..) => Command::Stop,
             (true, _, Some(u)) => Command::Run(u),
             (true, Share::Setpoint(u), None) => Command::Run(u),
-            (true, Share::Power(p), None) => Command::Run(setpoint_for_power(&ty.params, p)),
+            (true, Share::Power(p), None) => Command::Run(ty.curve.setpoint(p)),
         };
         let t = g.unit.advance(
             &ty.params,
@@ -50,6 +49,9 @@ impl Stepper {
         tally.energy[k] += c * t.energy;
         tally.h2_produced[k] += c * (ty.h2_per_coulomb * t.charge);
         tally.running[k] += c * t.running;
+        tally.charge[k] += c * t.charge;
+        tally.current_squared_time[k] += c * t.current_squared;
+        tally.starting[k] += c * t.starting;
         tally.starts += g.count as u64 * t.starts as u64;
         if self.rotation {
             g.running += t.running;

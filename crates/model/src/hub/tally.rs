@@ -16,10 +16,14 @@ use super::{Group, HubReadings};
 /// A chunk's sums while its groups are stepped or observed, lane k for group j ≡ k (mod 4).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Tally {
-    /// Electric energy [J], hydrogen [Nl] and running time [s] over the piece.
+    /// Electric energy [J], hydrogen [Nl], running time [s], charge [A·s], ∫I² dt [A²·s]
+    /// and starting time [s] over the piece.
     pub energy: Lane,
     pub h2_produced: Lane,
     pub running: Lane,
+    pub charge: Lane,
+    pub current_squared_time: Lane,
+    pub starting: Lane,
     /// Power of the modules that carry no current share [W].
     pub others: Lane,
     /// Outputs after the piece: power [W], hydrogen flow [Nl/h], current [A], and the
@@ -27,6 +31,7 @@ pub(super) struct Tally {
     pub power: Lane,
     pub h2_flow: Lane,
     pub current: Lane,
+    pub current_squared: Lane,
     pub voltage: Lane,
     /// With the thermal model: stack temperatures [K] and cooling powers [W], summed.
     pub temperature: Lane,
@@ -50,10 +55,14 @@ impl Default for Tally {
             energy: zero,
             h2_produced: zero,
             running: zero,
+            charge: zero,
+            current_squared_time: zero,
+            starting: zero,
             others: zero,
             power: zero,
             h2_flow: zero,
             current: zero,
+            current_squared: zero,
             voltage: zero,
             temperature: zero,
             cooling: zero,
@@ -85,11 +94,14 @@ impl Tally {
             self.temperature[k] += c * g.unit.temperature;
             self.cooling[k] += c * balance.cooling_power(g.unit.temperature, i);
         }
+        let grid = &op.grid;
         if g.unit.state == Steady {
             let v = g.unit.voltage(p, thermal);
             self.observe_steady(k, g.count, i, v * i, p.h2_coefficient * i, v);
             if g.active {
                 self.carrying += g.count;
+            } else if grid.grid_side_reference {
+                self.others[k] += c * (v * i + grid.running_extra(i));
             } else {
                 self.others[k] += c * (v * i);
             }
@@ -100,7 +112,11 @@ impl Tally {
         self.h2_flow[k] += c * (p.h2_coefficient * i);
         self.current[k] += c * i;
         self.counts[g.unit.state.code() as usize] += g.count;
-        self.others[k] += power;
+        if grid.grid_side_reference && g.unit.state == Curve {
+            self.others[k] += power + c * grid.auxiliary_power;
+        } else {
+            self.others[k] += power;
+        }
         if matches!(g.unit.state, Curve | Standby | Blowdown) {
             self.next_event = self.next_event.min(g.unit.timer);
         }
@@ -122,6 +138,7 @@ impl Tally {
         self.power[k] += c * power;
         self.h2_flow[k] += c * h2_flow;
         self.current[k] += c * i;
+        self.current_squared[k] += c * (i * i);
         self.voltage[k] += c * voltage;
         self.steady += count as u64;
         self.counts[OperatingState::Steady.code() as usize] += count;
@@ -135,6 +152,8 @@ impl Tally {
         self.energy[k] += c * o.energy[k];
         self.h2_produced[k] += c * o.hydrogen[k];
         self.running[k] += c * piece;
+        self.charge[k] += c * o.charge[k];
+        self.current_squared_time[k] += c * o.current_squared[k];
         self.carrying += count;
         self.observe_steady(
             k,
@@ -156,9 +175,12 @@ impl Tally {
             self.energy[k] += c[k] * o.energy[k];
             self.h2_produced[k] += c[k] * o.hydrogen[k];
             self.running[k] += c[k] * piece;
+            self.charge[k] += c[k] * o.charge[k];
+            self.current_squared_time[k] += c[k] * o.current_squared[k];
             self.power[k] += c[k] * o.power[k];
             self.h2_flow[k] += c[k] * o.h2_flow[k];
             self.current[k] += c[k] * o.current[k];
+            self.current_squared[k] += c[k] * (o.current[k] * o.current[k]);
             self.voltage[k] += c[k] * o.voltage[k];
         }
         let n: u32 = counts.iter().sum();
@@ -174,6 +196,9 @@ impl Tally {
             energy: fold(&self.energy),
             h2_produced: fold(&self.h2_produced),
             running: fold(&self.running),
+            charge: fold(&self.charge),
+            current_squared: fold(&self.current_squared_time),
+            starting: fold(&self.starting),
             starts: self.starts,
             carrying: self.carrying,
             others: fold(&self.others),
@@ -183,6 +208,7 @@ impl Tally {
                 power: fold(&self.power),
                 h2_flow: fold(&self.h2_flow),
                 current: fold(&self.current),
+                current_squared: fold(&self.current_squared),
                 voltage: fold(&self.voltage),
                 temperature: fold(&self.temperature),
                 cooling: fold(&self.cooling),
@@ -199,6 +225,9 @@ pub(super) struct Part {
     pub energy: f64,
     pub h2_produced: f64,
     pub running: f64,
+    pub charge: f64,
+    pub current_squared: f64,
+    pub starting: f64,
     pub starts: u64,
     pub carrying: u32,
     pub others: f64,
@@ -249,6 +278,7 @@ pub(super) struct ReadingSums {
     power: f64,
     h2_flow: f64,
     current: f64,
+    current_squared: f64,
     voltage: f64,
     /// Stack temperatures [K] and cooling powers [W] summed (0 without the thermal model).
     temperature: f64,
@@ -262,6 +292,7 @@ impl ReadingSums {
         self.power += part.power;
         self.h2_flow += part.h2_flow;
         self.current += part.current;
+        self.current_squared += part.current_squared;
         self.voltage += part.voltage;
         self.temperature += part.temperature;
         self.cooling += part.cooling;
@@ -276,6 +307,7 @@ impl ReadingSums {
             power: self.power,
             h2_flow: self.h2_flow,
             current: self.current,
+            current_squared: self.current_squared,
             voltage: if self.steady > 0 {
                 self.voltage / self.steady as f64
             } else {

@@ -1,4 +1,5 @@
 use super::*;
+use crate::dispatch::power_at_setpoint;
 use crate::Module;
 
 pub(super) fn config(n: u32, policy: DispatchPolicy, below: BelowMinimum) -> HubConfig {
