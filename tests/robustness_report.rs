@@ -199,7 +199,7 @@ fn cases() -> Vec<(&'static str, Stage, Box<dyn Fn(&Fmu) -> sys::fmi2Status>)> {
         (
             "unknown value reference (fmi2SetReal)",
             Stepping,
-            Box::new(|f| unsafe { fmi2SetReal(f.c, [19u32].as_ptr(), 1, &1.0) }),
+            Box::new(|f| unsafe { fmi2SetReal(f.c, [99u32].as_ptr(), 1, &1.0) }),
         ),
         (
             "unknown value reference (fmi2GetReal)",
@@ -547,6 +547,14 @@ fn cases() -> Vec<(&'static str, Stage, Box<dyn Fn(&Fmu) -> sys::fmi2Status>)> {
             Box::new(|f| {
                 f.set_boolean(BooleanVariable::ThermalModel, true);
                 f.set(HeatCapacity, -1.0);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "supplyLossResistance = -0.01 Ohm at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set(SupplyLossResistance, -0.01);
                 unsafe { fmi2ExitInitializationMode(f.c) }
             }),
         ),

@@ -3,7 +3,7 @@
 //! Serialised layout (little endian): magic "AEMFMUST", format version (u32), payload
 //! length (u32), payload, CRC-32 of everything before it (u32). The payload holds the GUID
 //! and every field of [`SavedState`] in order: flags, parameters, settings (the reserves
-//! offered among them), inputs, times, the module parameter file's name and its parameter
+//! offered among them, then the thermal and the grid-side ones), inputs, times, the module parameter file's name and its parameter
 //! sets, the reserves' state (FFR's, and what was logged), then the plant (a module's state,
 //! or a hub's groups and totals). On the way back in,
 //! magic, version, length, checksum, GUID, enum codes, finiteness and the plant's
@@ -13,8 +13,8 @@ use crate::model_description::GUID;
 use aem_model::hub::{Group, HubSnapshot, HubTotals};
 use aem_model::operation::UnitState;
 use aem_model::{
-    CurrentState, FastReserve, ModuleState, OperatingState, Parameters, PlantSettings,
-    PlantSnapshot, ReserveSettings, ThermalParameters,
+    CurrentState, FastReserve, GridParameters, ModuleState, OperatingState, Parameters,
+    PlantSettings, PlantSnapshot, ReserveSettings, ThermalParameters,
 };
 
 use super::state_machine::FmiState;
@@ -23,7 +23,7 @@ use super::variables::Inputs;
 /// The first bytes of every serialised state.
 pub const MAGIC: &[u8; 8] = b"AEMFMUST";
 /// Version of the serialised format; bump it whenever the payload changes.
-pub const FORMAT_VERSION: u32 = 7;
+pub const FORMAT_VERSION: u32 = 8;
 const SAVED_MAGIC: u64 = 0x4145_4d5f_5354_4154; // "AEM_STAT"
 const PLANT_NONE: u8 = 0;
 const PLANT_MODULE: u8 = 1;
@@ -166,6 +166,16 @@ impl SavedState {
         for x in thermal_values(&s.thermal) {
             w.f64(x);
         }
+        let g = &s.grid;
+        w.u8(g.grid_side_reference as u8);
+        for x in [
+            g.auxiliary_power,
+            g.supply_no_load_loss,
+            g.supply_loss_voltage,
+            g.supply_loss_resistance,
+        ] {
+            w.f64(x);
+        }
         for x in [
             self.inputs.setpoint,
             self.inputs.power_reference,
@@ -208,6 +218,8 @@ impl SavedState {
                     m.energy,
                     m.h2_produced,
                     m.temperature,
+                    m.charge,
+                    m.current_squared,
                 ] {
                     w.f64(x);
                 }
@@ -238,6 +250,9 @@ impl SavedState {
                     w.f64(x);
                 }
                 w.u64(t.starts);
+                for x in [t.charge, t.current_squared, t.starting] {
+                    w.f64(x);
+                }
             }
         }
         let payload = w.0;
@@ -326,6 +341,13 @@ impl SavedState {
             },
             thermal_model: r.flag()?,
             thermal: read_thermal(&mut r)?,
+            grid: GridParameters {
+                grid_side_reference: r.flag()?,
+                auxiliary_power: r.finite()?,
+                supply_no_load_loss: r.finite()?,
+                supply_loss_voltage: r.finite()?,
+                supply_loss_resistance: r.finite()?,
+            },
         };
         let inputs = Inputs {
             setpoint: r.finite()?,
@@ -366,7 +388,7 @@ impl SavedState {
         let plant = match r.u8()? {
             PLANT_NONE => None,
             PLANT_MODULE => {
-                let mut m = [0.0; 7];
+                let mut m = [0.0; 9];
                 for v in m.iter_mut() {
                     *v = r.finite()?;
                 }
@@ -381,6 +403,8 @@ impl SavedState {
                     energy: m[4],
                     h2_produced: m[5],
                     temperature: m[6],
+                    charge: m[7],
+                    current_squared: m[8],
                 }))
             }
             PLANT_HUB => Some(PlantSnapshot::Hub(read_hub(&mut r)?)),
@@ -543,6 +567,9 @@ fn read_hub(r: &mut Reader) -> Result<HubSnapshot, String> {
         h2_produced: r.finite()?,
         running: r.finite()?,
         starts: r.u64()?,
+        charge: r.finite()?,
+        current_squared: r.finite()?,
+        starting: r.finite()?,
     };
     Ok(HubSnapshot {
         groups,
@@ -644,6 +671,8 @@ mod tests {
             energy: 1.0e6,
             h2_produced: 33.0,
             temperature: 301.25,
+            charge: 451.5,
+            current_squared: 18_000.25,
         };
         let inputs = Inputs {
             setpoint: 73.0,
@@ -658,6 +687,13 @@ mod tests {
                 heat_capacity: 12_345.0,
                 n_cells: 17,
                 ..ThermalParameters::default()
+            },
+            grid: GridParameters {
+                auxiliary_power: 150.0,
+                supply_no_load_loss: 40.0,
+                supply_loss_voltage: 0.75,
+                supply_loss_resistance: 0.002,
+                grid_side_reference: true,
             },
             ..PlantSettings::default()
         };

@@ -132,7 +132,14 @@ pub fn module_parameter(var: RealVariable) -> Option<ModuleParameter> {
         | WarmStartTemperature
         | AmbientTemperature
         | StackTemperature
-        | CoolingPower => None,
+        | CoolingPower
+        | AuxiliaryPower
+        | SupplyNoLoadLoss
+        | SupplyLossVoltage
+        | SupplyLossResistance
+        | AcPower
+        | HubAcPower
+        | HubAcEnergy => None,
     }
 }
 
@@ -168,11 +175,16 @@ fn setting_mut(settings: &mut PlantSettings, var: RealVariable) -> Option<&mut f
             Some(&mut settings.thermal.resistance_temperature_coefficient)
         }
         WarmStartTemperature => Some(&mut settings.thermal.warm_start_temperature),
+        AuxiliaryPower => Some(&mut settings.grid.auxiliary_power),
+        SupplyNoLoadLoss => Some(&mut settings.grid.supply_no_load_loss),
+        SupplyLossVoltage => Some(&mut settings.grid.supply_loss_voltage),
+        SupplyLossResistance => Some(&mut settings.grid.supply_loss_resistance),
         Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance
         | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Setpoint
         | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower
         | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts
-        | Frequency | ReserveRequest | AmbientTemperature | StackTemperature | CoolingPower => None,
+        | Frequency | ReserveRequest | AmbientTemperature | StackTemperature | CoolingPower
+        | AcPower | HubAcPower | HubAcEnergy => None,
     }
 }
 
@@ -234,7 +246,14 @@ pub fn real_input_mut(inputs: &mut Inputs, var: RealVariable) -> Option<&mut f64
         | ResistanceTemperatureCoefficient
         | WarmStartTemperature
         | StackTemperature
-        | CoolingPower => None,
+        | CoolingPower
+        | AuxiliaryPower
+        | SupplyNoLoadLoss
+        | SupplyLossVoltage
+        | SupplyLossResistance
+        | AcPower
+        | HubAcPower
+        | HubAcEnergy => None,
     }
 }
 
@@ -259,6 +278,9 @@ pub fn real_output(var: RealVariable, plant: &Plant, reserve_request: f64) -> Op
         ReserveRequest => Some(reserve_request),
         StackTemperature => Some(plant.stack_temperature()),
         CoolingPower => Some(plant.cooling_power()),
+        AcPower => Some(plant.ac_power()),
+        HubAcPower => Some(plant.hub_ac_power()),
+        HubAcEnergy => Some(plant.hub_ac_energy()),
         Setpoint
         | PowerReference
         | Gain
@@ -297,6 +319,10 @@ pub fn real_output(var: RealVariable, plant: &Plant, reserve_request: f64) -> Op
         | VoltageTemperatureCoefficient
         | ResistanceTemperatureCoefficient
         | WarmStartTemperature
+        | AuxiliaryPower
+        | SupplyNoLoadLoss
+        | SupplyLossVoltage
+        | SupplyLossResistance
         | AmbientTemperature => None,
     }
 }
@@ -350,6 +376,7 @@ pub fn boolean_parameter_mut(
         BooleanVariable::PowerInput => Some(&mut settings.power_input),
         BooleanVariable::ReserveCompensation => Some(&mut settings.reserve.compensation),
         BooleanVariable::ThermalModel => Some(&mut settings.thermal_model),
+        BooleanVariable::GridSideReference => Some(&mut settings.grid.grid_side_reference),
     }
 }
 

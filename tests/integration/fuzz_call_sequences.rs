@@ -52,7 +52,7 @@ fn real_value() -> impl Strategy<Value = f64> {
 fn value_reference() -> impl Strategy<Value = u32> {
     prop_oneof![
         6 => (0..RealVariable::ALL.len()).prop_map(|i| RealVariable::ALL[i].value_reference()),
-        1 => Just(19u32),
+        1 => Just(29u32),
         1 => Just(99u32),
         1 => Just(u32::MAX),
     ]

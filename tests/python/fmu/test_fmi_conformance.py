@@ -63,7 +63,7 @@ OUTPUT_NAMES = ("current", "voltage", "power", "h2Flow", "energy", "h2Produced")
 OUTPUT_VRS = (1, 2, 3, 4, 5, 6)
 PARAMETER_NAMES = tuple(PAPER)
 PARAMETER_VRS = tuple(range(100, 111))
-UNKNOWN_VRS = (19, 99, 2**32 - 1)
+UNKNOWN_VRS = (29, 99, 2**32 - 1)
 
 #: Setpoint [%] at initialisation (inside the operating window [60, 100] %).
 INITIAL_SETPOINT = 80.0
@@ -111,18 +111,33 @@ FMI2_CS_FUNCTIONS = (
 
 FMUTOOL = Path(sys.executable).with_name("fmutool")
 
-# Serialised FMU state (src/fmi2/fmu_state.rs, format 7): magic(8) version(4) payload length(4)
+# Serialised FMU state (src/fmi2/fmu_state.rs, format 8): magic(8) version(4) payload length(4)
 # payload crc32(4); payload = GUID length(4) GUID, FMI state code, excursion and stop-time flags
 # (1 each), 11 f64 parameters (gain first), 4 u32 and 1 u8 hub settings, 8 f64 hub settings,
-# 7 f64 and 1 u8 reserve settings, the thermal model's u8 switch, u32 nCells and 9 f64,
-# 7 f64 (setpoint, powerReference, frequency, ambientTemperature, setpoint slope, time, stop
-# time), the module parameter file (u32 length, here 0, and its bytes), a flag and a u32 count
-# of parameter sets (here none), the reserves' state (u8 FFR state, f64 its end, two u8 flags),
-# plant kind (1), and for a single module 7 f64 (the last the stack temperature).
+# 7 f64 and 1 u8 reserve settings, the thermal model's u8 switch, u32 nCells and 9 f64, the grid
+# side's u8 switch and 4 f64, 7 f64 (setpoint, powerReference, frequency, ambientTemperature,
+# setpoint slope, time, stop time), the module parameter file (u32 length, here 0, and its
+# bytes), a flag and a u32 count of parameter sets (here none), the reserves' state (u8 FFR
+# state, f64 its end, two u8 flags), plant kind (1), and for a single module 9 f64 (time, the
+# three current states, energy, hydrogen, stack temperature, charge, integral of I^2).
 STATE_MAGIC, STATE_VERSION, STATE_LENGTH, STATE_PAYLOAD = 0, 8, 12, 16
 STATE_FLAGS = 3
 STATE_AFTER_PARAMETERS = (
-    8 * 11 + 4 * 4 + 1 + 8 * 8 + 8 * 7 + 1 + (1 + 4 + 8 * 9) + 8 * 7 + 4 + 1 + 4 + (1 + 8 + 1 + 1) + 1 + 8 * 7
+    8 * 11
+    + 4 * 4
+    + 1
+    + 8 * 8
+    + 8 * 7
+    + 1
+    + (1 + 4 + 8 * 9)
+    + (1 + 8 * 4)
+    + 8 * 7
+    + 4
+    + 1
+    + 4
+    + (1 + 8 + 1 + 1)
+    + 1
+    + 8 * 9
 )
 
 # Life-cycle test.
@@ -867,8 +882,8 @@ BAD_CALLS = [
         BadCall(f"set-unknown-vr-{vr}", S, set_real([vr], [1.0]), words=("fmi2SetReal", f"value reference {vr}"))
         for vr in UNKNOWN_VRS
     ],
-    BadCall("get-known-then-unknown", S, get_real(VR_CURRENT, 19), words=("value reference 19",)),
-    BadCall("set-setpoint-then-unknown", S, set_real([VR_SETPOINT, 19], [90.0, 1.0]), words=("value reference 19",)),
+    BadCall("get-known-then-unknown", S, get_real(VR_CURRENT, 29), words=("value reference 29",)),
+    BadCall("set-setpoint-then-unknown", S, set_real([VR_SETPOINT, 29], [90.0, 1.0]), words=("value reference 29",)),
     BadCall(
         "set-setpoint-then-output", S, set_real([VR_SETPOINT, VR_CURRENT], [90.0, 1.0]), words=("current", "output")
     ),
