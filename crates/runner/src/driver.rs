@@ -51,7 +51,13 @@ const MODULE_PARAMETERS: [&str; 11] = [
 ];
 
 /// Outputs read at the end of the run.
-const TOTALS: [&str; 4] = ["hubEnergy", "hubH2Produced", "starts", "runningHours"];
+const TOTALS: [&str; 5] = [
+    "hubEnergy",
+    "hubH2Produced",
+    "starts",
+    "runningHours",
+    "hubAcEnergy",
+];
 
 /// An fmi2 call's result: OK or Warning pass (the warning's text is collected).
 fn check(what: &str, result: std::result::Result<Fmi2Res, fmi::fmi2::Fmi2Error>) -> Result<()> {
@@ -247,7 +253,8 @@ pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>
             "setpoint"
         },
     )?];
-    let energy_vr = [value_reference(&import, "hubEnergy")?];
+    // What the hub draws from the grid, step by step (hubEnergy without losses or auxiliaries).
+    let energy_vr = [value_reference(&import, "hubAcEnergy")?];
     let totals_vrs = TOTALS
         .iter()
         .map(|name| value_reference(&import, name))
@@ -273,7 +280,7 @@ pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>
 
     let mut sums = (scenario.input == Input::Power).then(Sums::default);
     let rated = f64::from(modules[0]) * module_power;
-    let mut energy = [at_start[0]];
+    let mut energy = [at_start[4]];
     for (k, &reference) in scenario.reference.iter().enumerate() {
         let t = scenario.start + k as f64 * h;
         check(
@@ -283,7 +290,7 @@ pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>
         // The call's name is formatted only when it failed (a year is 31.5 million steps).
         check("doStep", fmu.do_step(t, h, true)).map_err(|e| format!("{e} at {t} s"))?;
         let before = energy[0];
-        check("getReal hubEnergy", fmu.get_real(&energy_vr, &mut energy))?;
+        check("getReal hubAcEnergy", fmu.get_real(&energy_vr, &mut energy))?;
         if let Some(s) = sums.as_mut() {
             s.add(reference, energy[0] - before, h, rated);
         }
@@ -300,6 +307,7 @@ pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>
         hydrogen: since(1) * kilograms_per_normal_litre(&import)?,
         starts: since(2),
         running_hours: since(3),
+        grid_energy: since(4),
     };
     Ok((totals, sums))
 }

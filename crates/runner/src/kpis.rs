@@ -1,7 +1,9 @@
 //! The scenario's KPIs, accumulated step by step from the FMU's exact energy integral.
 //!
-//! Over step k the reference r_k [W] is held; the hub draws ΔE_k [J] (difference of the FMU's
-//! `hubEnergy`, its exact integral over the step), so its step-mean power is p_k = ΔE_k / h.
+//! Over step k the reference r_k [W] is held; the hub draws ΔE_k [J] from the grid (difference
+//! of the FMU's `hubAcEnergy`, its exact integral over the step: the electric energy with the
+//! supply's losses and the auxiliaries, equal to `hubEnergy` without them), so its step-mean
+//! power is p_k = ΔE_k / h.
 //! Wind not absorbed = Σ max(r_k h − ΔE_k, 0), grid import = Σ max(ΔE_k − r_k h, 0) (net per
 //! step); tracking error e_k = p_k − min(r_k, P_rated), RMS over the steps.
 
@@ -11,7 +13,7 @@ const J_PER_MWH: f64 = 3.6e9;
 
 /// Version of these definitions; aem-study keys stored results with it (aem_electrolyser.study.definition's
 /// KPI_VERSION must equal it, which the worker checks), so changed definitions rerun.
-pub const KPI_VERSION: u32 = 1;
+pub const KPI_VERSION: u32 = 2;
 
 /// Running sums over the steps of a power-driven run.
 #[derive(Debug, Default, Clone)]
@@ -44,8 +46,10 @@ pub struct Totals {
     /// One module's steady power at maxSetpoint [W].
     pub module_rated_power: f64,
     pub horizon: f64,
-    /// hubEnergy [J].
+    /// hubEnergy [J]: the electric energy (stack, start-up and standby).
     pub energy: f64,
+    /// hubAcEnergy [J]: what the grid delivered (with the supply's losses and auxiliaries).
+    pub grid_energy: f64,
     /// hubH2Produced [kg] (converted with the model description's display unit).
     pub hydrogen: f64,
     pub starts: f64,
@@ -59,6 +63,7 @@ pub fn row(totals: &Totals, sums: Option<&Sums>) -> Map<String, Value> {
     let modules = f64::from(totals.modules);
     let rated = modules * totals.module_rated_power;
     let energy_mwh = totals.energy / J_PER_MWH;
+    let grid_mwh = totals.grid_energy / J_PER_MWH;
     let wind = |f: fn(&Sums) -> f64| sums.map_or(Value::Null, |s| number(f(s)));
     let mut row = Map::new();
     let mut put = |key: &str, value: Value| {
@@ -73,6 +78,15 @@ pub fn row(totals: &Totals, sums: Option<&Sums>) -> Map<String, Value> {
     put(
         "specific energy [kWh/kg]",
         number(energy_mwh * 1e3 / totals.hydrogen),
+    );
+    put("grid energy [MWh]", number(grid_mwh));
+    put(
+        "supply losses and auxiliaries [MWh]",
+        number(grid_mwh - energy_mwh),
+    );
+    put(
+        "specific energy, grid side [kWh/kg]",
+        number(grid_mwh * 1e3 / totals.hydrogen),
     );
     put(
         "wind not absorbed [MWh]",
@@ -118,6 +132,7 @@ mod tests {
             module_rated_power: 25e6,
             horizon: 6.0,
             energy: 122e6,
+            grid_energy: 131e6,
             hydrogen: 2.0,
             starts: 4.0,
             running_hours: 3.0,
@@ -135,6 +150,12 @@ mod tests {
             get("specific energy [kWh/kg]"),
             122e6 / J_PER_MWH * 1e3 / 2.0
         );
+        assert_eq!(get("grid energy [MWh]"), 131e6 / J_PER_MWH);
+        assert_eq!(
+            get("specific energy, grid side [kWh/kg]"),
+            131e6 / J_PER_MWH * 1e3 / 2.0
+        );
+        assert!((get("supply losses and auxiliaries [MWh]") - 9e6 / J_PER_MWH).abs() < 1e-15);
     }
 
     #[test]
@@ -144,6 +165,7 @@ mod tests {
             module_rated_power: 2e3,
             horizon: 3600.0,
             energy: 0.0,
+            grid_energy: 0.0,
             hydrogen: 0.0,
             starts: 0.0,
             running_hours: 0.0,

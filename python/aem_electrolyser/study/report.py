@@ -6,7 +6,7 @@ with `float_precision="round_trip"`) reads back the same doubles. Replicate axes
 `series`) are averaged over in the plots, best cases and pivot, their min-max shown as spread.
 
 What the report does not let pass silently:
-- a best case comes with what it took: its grid import (MWh and share of the energy drawn), the
+- a best case comes with what it took: its grid import (MWh and share of the grid energy), the
   wind it left (MWh and share of the wind offered) and its starts (per module and in all);
 - a categorical x axis (dispatch = equal, sequential; seeds; series) is drawn as grouped bars,
   never as a line sloping from one category to the next (plot_kind);
@@ -38,7 +38,7 @@ MAX_LINES = 12
 #: KPIs with a best case in the summary, and whether larger is better.
 BEST = {"hydrogen [kg]": True, "wind not absorbed [MWh]": False}
 #: The KPIs a best case's caveats are made of (kpis.KPIS).
-GRID, DRAWN = "grid import [MWh]", "energy drawn [MWh]"
+GRID, DRAWN = "grid import [MWh]", "grid energy [MWh]"
 LOST, OFFERED = "wind not absorbed [MWh]", "reference energy [MWh]"
 STARTS, MODULES = "starts per module [1]", "modules [1]"
 PIVOT_KPI = "hydrogen [kg]"
@@ -297,7 +297,7 @@ def _share(part: float, whole: float) -> str:
 
 def caveats(rows: pd.DataFrame) -> list:
     """What a configuration's result took, from its done scenarios `rows` (means over them):
-    grid import with its share of the energy drawn, wind not absorbed with its share of the
+    grid import with its share of the grid energy, wind not absorbed with its share of the
     wind offered, starts per module and in all. A KPI without values (a setpoint series has no
     wind) is left out."""
     mean = {
@@ -308,7 +308,7 @@ def caveats(rows: pd.DataFrame) -> list:
         of = (
             ""
             if pd.isna(mean[DRAWN])
-            else f", {_share(mean[GRID], mean[DRAWN])} of the {_fmt(mean[DRAWN])} {_unit(DRAWN)} drawn"
+            else f", {_share(mean[GRID], mean[DRAWN])} of the {_fmt(mean[DRAWN])} {_unit(DRAWN)} drawn from the grid"
         )
         out.append(f"grid import: {_fmt(mean[GRID])} {_unit(GRID)}{of}")
     if not pd.isna(mean[LOST]):

@@ -93,6 +93,8 @@ column = "power [kW]"
         "horizon [h]": hours,
         "reference energy [MWh]": hub_power * t / 3.6e9,
         "energy drawn [MWh]": hub_power * t / 3.6e9,  # E = P t
+        "grid energy [MWh]": hub_power * t / 3.6e9,  # no supply losses, no auxiliaries
+        "supply losses and auxiliaries [MWh]": 0.0,
         "hydrogen [kg]": n * PAPER["h2Coefficient"] * current * hours * KG_PER_NL,  # c I t
         "hub rated power [MW]": rated / 1e6,
         "full-load hours [h]": hub_power * hours / rated,
@@ -107,6 +109,45 @@ column = "power [kW]"
     assert row["specific energy [kWh/kg]"] == pytest.approx(
         expected["energy drawn [MWh]"] * 1e3 / expected["hydrogen [kg]"], rel=1e-9
     )
+
+
+def test_a_grid_side_reference_is_drawn_from_the_grid_with_its_losses_and_auxiliaries(tmp_path, fmu_path):
+    """The flat reference on the grid side: the hub draws it from the grid; its stack gets what the
+    supply's losses and the auxiliaries leave, P + P0 + Vs I + Rs I^2 + P_aux = reference / N."""
+    n, hub_power, hours = 400, 0.8e6, 2.0
+    aux, p0, vs, rs = 150.0, 30.0, 0.6, 0.015
+    (tmp_path / "flat.csv").write_text(f"time [s],power [kW]\n0,{hub_power / 1e3}\n{hours * 3600},{hub_power / 1e3}\n")
+    path = write_study(
+        tmp_path,
+        f"""horizon = "{hours} h"
+[parameters]
+nModules = {n}
+gridSideReference = true
+auxiliaryPower = {aux}
+supplyNoLoadLoss = {p0}
+supplyLossVoltage = {vs}
+supplyLossResistance = {rs}
+[series.flat]
+file = "flat.csv"
+column = "power [kW]"
+""",
+        fmu_path,
+    )
+    _, frame = run_study(path, tmp_path / "out", serial=True)
+    row = frame.iloc[0]
+    assert row["status"] == "done", row["message"]
+    # Per module: (V0 + Vs) I + (R + Rs) I^2 = reference / N - P0 - P_aux, the positive root.
+    a, b, c = PAPER["ohmicResistance"] + rs, PAPER["voltageIntercept"] + vs, -(hub_power / n - p0 - aux)
+    current = (-b + math.sqrt(b * b - 4 * a * c)) / (2 * a)
+    stack = n * (PAPER["voltageIntercept"] + PAPER["ohmicResistance"] * current) * current
+    t = hours * 3600.0
+    hydrogen = n * PAPER["h2Coefficient"] * current * hours * KG_PER_NL
+    assert row["grid energy [MWh]"] == pytest.approx(hub_power * t / 3.6e9, rel=1e-9)
+    assert row["energy drawn [MWh]"] == pytest.approx(stack * t / 3.6e9, rel=1e-9)
+    assert row["supply losses and auxiliaries [MWh]"] == pytest.approx((hub_power - stack) * t / 3.6e9, rel=1e-8)
+    assert row["grid import [MWh]"] == pytest.approx(0.0, abs=1e-9)
+    assert row["hydrogen [kg]"] == pytest.approx(hydrogen, rel=1e-9)
+    assert row["specific energy, grid side [kWh/kg]"] == pytest.approx(hub_power * hours / 1e3 / hydrogen, rel=1e-9)
 
 
 def test_a_setpoint_series_drives_the_setpoint_and_has_no_wind_kpis(tmp_path, fmu_path):
@@ -170,8 +211,8 @@ def test_the_cluster_gives_the_serial_kpis_bit_for_bit(tmp_path, fmu_path):
         assert frame["scenario"].tolist() == serial["scenario"].tolist()
         np.testing.assert_array_equal(kpi_values(frame), kpi_values(serial))
     assert two["worker"].nunique() == 2, "both worker processes ran scenarios"
-    # Conservation per scenario: offered = drawn + not absorbed − imported (per step, net).
-    balance = serial["energy drawn [MWh]"] + serial["wind not absorbed [MWh]"] - serial["grid import [MWh]"]
+    # Conservation per scenario: offered = grid draw + not absorbed − imported (per step, net).
+    balance = serial["grid energy [MWh]"] + serial["wind not absorbed [MWh]"] - serial["grid import [MWh]"]
     np.testing.assert_allclose(balance, serial["reference energy [MWh]"], rtol=1e-12)
     # The sequential hub switches modules, the equal one never stops any.
     assert (serial[serial["mode"] == "equal"]["starts per module [1]"] == 0).all()

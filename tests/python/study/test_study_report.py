@@ -165,6 +165,9 @@ def test_written_files_and_plots(crossed):
             "energy_drawn_MWh",
             "hydrogen_kg",
             "specific_energy_kWh_per_kg",
+            "grid_energy_MWh",
+            "supply_losses_and_auxiliaries_MWh",
+            "specific_energy_grid_side_kWh_per_kg",
             "wind_not_absorbed_MWh",
             "full-load_hours_h",
             "starts_per_module_1",
@@ -362,6 +365,7 @@ def hub_table():
                         "horizon [h]": 8760.0,
                         "reference energy [MWh]": offered(seed),
                         "energy drawn [MWh]": drawn(dispatch, size, seed),
+                        "grid energy [MWh]": drawn(dispatch, size, seed),
                         "hydrogen [kg]": 20.0 * drawn(dispatch, size, seed),
                         "wind not absorbed [MWh]": lost(dispatch, size, seed),
                         "grid import [MWh]": grid(dispatch, size, seed),
@@ -387,7 +391,7 @@ def caveat_block(text, best):
 
 
 def expected_caveats(dispatch, size):
-    """Means over the done seeds: MWh, % of the energy drawn / offered, starts per module, in all."""
+    """Means over the done seeds: MWh, % of the grid energy / wind offered, starts per module, in all."""
     seeds = [d for d in SEEDS[:2] if (dispatch, size, d) != HUB_FAILED]
 
     def mean(f):
@@ -409,7 +413,7 @@ def test_best_cases_carry_grid_import_wind_not_absorbed_and_starts(tmp_path):
     # the caveats are read from these KPI columns, as aem-run writes them (kpis.KPIS)
     assert {
         "grid import [MWh]",
-        "energy drawn [MWh]",
+        "grid energy [MWh]",
         "wind not absorbed [MWh]",
         "reference energy [MWh]",
         "starts per module [1]",
@@ -432,13 +436,13 @@ def test_best_cases_carry_grid_import_wind_not_absorbed_and_starts(tmp_path):
         for name, values in want.items():
             # shares are printed to 3 significant digits
             assert numbers(block[name]) == pytest.approx(values, rel=2e-3), (best, name, block[name])
-        assert re.fullmatch(r" \S+ MWh, \S+ % of the \S+ MWh drawn", block["grid import"]), block
+        assert re.fullmatch(r" \S+ MWh, \S+ % of the \S+ MWh drawn from the grid", block["grid import"]), block
         assert re.fullmatch(r" \S+ MWh, \S+ % of the \S+ MWh offered", block["wind not absorbed"]), block
         assert re.fullmatch(r" \S+ per module, \S+ in all", block["starts"]), block
     # the numbers a planner must not miss: a quarter of the best hydrogen is grid power (100 010
     # of 400 100 MWh), and the hub that leaves the least wind starts each module 3250 times
     hydrogen = caveat_block(text, "largest hydrogen [kg]")
-    assert hydrogen["grid import"] == " 100010 MWh, 25 % of the 400100 MWh drawn"
+    assert hydrogen["grid import"] == " 100010 MWh, 25 % of the 400100 MWh drawn from the grid"
     assert hydrogen["starts"] == " 0 per module, 0 in all"
     assert caveat_block(text, "smallest wind not absorbed [MWh]")["starts"] == " 3250 per module, 88,725,000 in all"
 
@@ -455,6 +459,7 @@ def test_the_constant_horizon_is_stated_not_plotted(tmp_path):
         "plots/modules_1.png",
         "plots/reference_energy_MWh.png",
         "plots/energy_drawn_MWh.png",
+        "plots/grid_energy_MWh.png",
         "plots/hydrogen_kg.png",
         "plots/wind_not_absorbed_MWh.png",
         "plots/grid_import_MWh.png",
