@@ -463,7 +463,7 @@ fn parameter_values(p: &Parameters) -> [f64; 11] {
 
 /// Parameters in the order of [`parameter_values`].
 /// The thermal parameters' Real values in their serialised order (nCells is written before).
-fn thermal_values(t: &ThermalParameters) -> [f64; 9] {
+fn thermal_values(t: &ThermalParameters) -> [f64; 10] {
     [
         t.initial_temperature,
         t.heat_capacity,
@@ -474,12 +474,13 @@ fn thermal_values(t: &ThermalParameters) -> [f64; 9] {
         t.voltage_temperature_coefficient,
         t.resistance_temperature_coefficient,
         t.warm_start_temperature,
+        t.standby_heater_power,
     ]
 }
 
 fn read_thermal(r: &mut Reader) -> Result<ThermalParameters, String> {
     let n_cells = r.u32()? as i32;
-    let mut x = [0.0; 9];
+    let mut x = [0.0; 10];
     for v in x.iter_mut() {
         *v = r.finite()?;
     }
@@ -494,6 +495,7 @@ fn read_thermal(r: &mut Reader) -> Result<ThermalParameters, String> {
         voltage_temperature_coefficient: x[6],
         resistance_temperature_coefficient: x[7],
         warm_start_temperature: x[8],
+        standby_heater_power: x[9],
     })
 }
 

@@ -139,7 +139,8 @@ pub fn module_parameter(var: RealVariable) -> Option<ModuleParameter> {
         | SupplyLossResistance
         | AcPower
         | HubAcPower
-        | HubAcEnergy => None,
+        | HubAcEnergy
+        | StandbyHeaterPower => None,
     }
 }
 
@@ -175,6 +176,7 @@ fn setting_mut(settings: &mut PlantSettings, var: RealVariable) -> Option<&mut f
             Some(&mut settings.thermal.resistance_temperature_coefficient)
         }
         WarmStartTemperature => Some(&mut settings.thermal.warm_start_temperature),
+        StandbyHeaterPower => Some(&mut settings.thermal.standby_heater_power),
         AuxiliaryPower => Some(&mut settings.grid.auxiliary_power),
         SupplyNoLoadLoss => Some(&mut settings.grid.supply_no_load_loss),
         SupplyLossVoltage => Some(&mut settings.grid.supply_loss_voltage),
@@ -253,7 +255,8 @@ pub fn real_input_mut(inputs: &mut Inputs, var: RealVariable) -> Option<&mut f64
         | SupplyLossResistance
         | AcPower
         | HubAcPower
-        | HubAcEnergy => None,
+        | HubAcEnergy
+        | StandbyHeaterPower => None,
     }
 }
 
@@ -323,6 +326,7 @@ pub fn real_output(var: RealVariable, plant: &Plant, reserve_request: f64) -> Op
         | SupplyNoLoadLoss
         | SupplyLossVoltage
         | SupplyLossResistance
+        | StandbyHeaterPower
         | AmbientTemperature => None,
     }
 }

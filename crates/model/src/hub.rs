@@ -254,6 +254,7 @@ impl Hub {
                     voltage_intercept: params.voltage_intercept,
                     ohmic_resistance: params.ohmic_resistance,
                     ambient: super::thermal::AMBIENT_START,
+                    heater: 0.0,
                 }),
                 curve,
                 params,

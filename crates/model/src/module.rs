@@ -170,6 +170,7 @@ impl Module {
             voltage_intercept: params.voltage_intercept,
             ohmic_resistance: params.ohmic_resistance,
             ambient,
+            heater: 0.0,
         });
         Ok(module)
     }
@@ -469,6 +470,7 @@ fn summed(first: Option<ThermalStep>, second: Option<ThermalStep>) -> Option<The
             heat_charge: a.heat_charge + b.heat_charge,
             heat_squared: a.heat_squared + b.heat_squared,
             cooling_energy: a.cooling_energy + b.cooling_energy,
+            heating_energy: a.heating_energy + b.heating_energy,
             regime_changes: a.regime_changes + b.regime_changes,
         }),
         (a, b) => b.or(a),

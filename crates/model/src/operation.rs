@@ -264,18 +264,21 @@ impl UnitState {
     }
 
     /// Electric power now [W]: V·I when Steady (V as [`Self::voltage`]), else the state's
-    /// constant power.
+    /// constant power; in Standby with the thermal model plus the standby heater's.
     pub fn power(
         &self,
         params: &Parameters,
         op: &OperationParameters,
         thermal: Option<&HeatBalance>,
     ) -> f64 {
-        match self.state {
-            OperatingState::Steady => self.voltage(params, thermal) * self.current.current,
-            OperatingState::Curve => op.start_power,
-            OperatingState::Standby | OperatingState::Blowdown => op.standby_power,
-            OperatingState::Idle => 0.0,
+        match (self.state, thermal) {
+            (OperatingState::Steady, _) => self.voltage(params, thermal) * self.current.current,
+            (OperatingState::Curve, _) => op.start_power,
+            (OperatingState::Standby, Some(b)) if b.thermal.standby_heater_power > 0.0 => {
+                op.standby_power + b.in_standby().heating_power(self.temperature, 0.0)
+            }
+            (OperatingState::Standby | OperatingState::Blowdown, _) => op.standby_power,
+            (OperatingState::Idle, _) => 0.0,
         }
     }
 
@@ -348,7 +351,7 @@ impl UnitState {
                 (Curve, Stop) => self.enter(UnitState::idle()),
                 (Curve, Run(_)) => {
                     let before = left;
-                    let done = self.wait(op.start_power, thermal, &mut left, &mut totals);
+                    let done = self.wait(op.start_power, thermal, false, &mut left, &mut totals);
                     totals.starting += before - left;
                     if done {
                         return totals;
@@ -357,7 +360,8 @@ impl UnitState {
                     self.enter(UnitState::steady(params, dynamics, params.min_setpoint));
                 }
                 (Standby, Stop) | (Blowdown, _) => {
-                    if self.wait(op.standby_power, thermal, &mut left, &mut totals) {
+                    let heated = self.state == Standby;
+                    if self.wait(op.standby_power, thermal, heated, &mut left, &mut totals) {
                         return totals;
                     }
                     self.enter(UnitState::idle());
@@ -384,7 +388,8 @@ impl UnitState {
             }
             OperatingState::Standby | OperatingState::Blowdown if self.timer > h => {
                 let mut left = h;
-                self.wait(op.standby_power, thermal, &mut left, &mut totals);
+                let heated = self.state == OperatingState::Standby;
+                self.wait(op.standby_power, thermal, heated, &mut left, &mut totals);
                 Some(totals)
             }
             _ => None,
@@ -431,16 +436,26 @@ impl UnitState {
     }
 
     /// Spends time in a timed state at constant `power` [W] (the stack cooling with
-    /// `thermal`). Returns true if the step ends first (the timer keeps the rest), false if
-    /// the timer ran out (`left` reduced).
+    /// `thermal`, `heated` by the standby heater, whose energy is drawn too). Returns true if
+    /// the step ends first (the timer keeps the rest), false if the timer ran out (`left`
+    /// reduced).
     #[inline]
     fn wait(
         &mut self,
         power: f64,
         thermal: Option<&HeatBalance>,
+        heated: bool,
         left: &mut f64,
         totals: &mut UnitTotals,
     ) -> bool {
+        let standby;
+        let thermal = match thermal {
+            Some(b) if heated && b.thermal.standby_heater_power > 0.0 => {
+                standby = b.in_standby();
+                Some(&standby)
+            }
+            other => other,
+        };
         if self.timer > *left {
             self.cool(thermal, *left, totals);
             self.timer -= *left;
@@ -480,6 +495,9 @@ impl UnitState {
                 let t = &balance.thermal;
                 totals.energy += t.voltage_temperature_coefficient * q.heat_charge
                     + t.resistance_temperature_coefficient * q.heat_squared;
+                if q.heating_energy > 0.0 {
+                    totals.energy += q.heating_energy;
+                }
                 self.temperature = q.temperature;
             }
             Err(e) => {

@@ -6,6 +6,10 @@
 //! - Thermostat with setpoint Ts: Qc = 0 below Ts; Qc = Qmax above Ts; at Ts it holds the
 //!   temperature (Qc = the surplus heat s = (V(Ts) − n·1.481 V)·I − (Ts − Ta)/Rth) while
 //!   0 ≤ s ≤ Qmax.
+//! - In standby a heater of at most Qh (`standbyHeaterPower`) takes the thermostat's other
+//!   side: Qc = −Qh below Ts, and at Ts it holds the temperature while −Qh ≤ s ≤ Qmax
+//!   (Qc = s < 0: the heater makes up the loss). With Qh = 0 (the default) a module in
+//!   standby cools like a stopped one.
 //!
 //! The balance is linear in T for a given current: C·dT/dt = α·T + β with
 //!   α = (kV + kR·I)·I − 1/Rth,  β = (V0 − kV·Tn + (R − kR·Tn)·I − n·1.481 V)·I + Ta/Rth − Qc,
@@ -50,6 +54,9 @@ pub struct ThermalParameters {
     /// A module whose stack is at least this warm starts warm (warmStartTime), else cold
     /// (coldStartTime), whatever its state [K].
     pub warm_start_temperature: f64,
+    /// Qh: largest heat the standby heater supplies, drawn as electric power on top of
+    /// standbyPower [W]; 0: no heater.
+    pub standby_heater_power: f64,
 }
 
 /// Shortest thermal time constant Rth·C accepted [s]: a stack's is minutes to hours; a
@@ -81,6 +88,7 @@ impl Default for ThermalParameters {
             voltage_temperature_coefficient: -0.046,
             resistance_temperature_coefficient: -0.0015,
             warm_start_temperature: 313.15,
+            standby_heater_power: 0.0,
         }
     }
 }
@@ -105,12 +113,17 @@ impl ThermalParameters {
                 });
             }
         }
-        if !(self.max_cooling_power.is_finite() && self.max_cooling_power >= 0.0) {
-            return Err(ParameterError {
-                name: "maxCoolingPower",
-                value: self.max_cooling_power,
-                requirement: "must be a finite number >= 0 W".into(),
-            });
+        for (name, value) in [
+            ("maxCoolingPower", self.max_cooling_power),
+            ("standbyHeaterPower", self.standby_heater_power),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(ParameterError {
+                    name,
+                    value,
+                    requirement: "must be a finite number >= 0 W".into(),
+                });
+            }
         }
         if !(1..=100_000).contains(&self.n_cells) {
             return Err(ParameterError {
@@ -180,6 +193,8 @@ pub struct HeatBalance {
     pub ohmic_resistance: f64,
     /// Ta [K].
     pub ambient: f64,
+    /// Heat the thermostat may supply now [W]: the standby heater's Qh in standby, else 0.
+    pub heater: f64,
 }
 
 impl HeatBalance {
@@ -204,6 +219,14 @@ impl HeatBalance {
             - (p.cooling_setpoint - self.ambient) / p.thermal_resistance
     }
 
+    /// The same balance in standby: the heater (`standbyHeaterPower`) on the thermostat.
+    pub fn in_standby(&self) -> HeatBalance {
+        HeatBalance {
+            heater: self.thermal.standby_heater_power,
+            ..*self
+        }
+    }
+
     /// The thermostat's regime at temperature T [K] and current I [A].
     pub fn regime(&self, temperature: f64, current: f64) -> Regime {
         let p = &self.thermal;
@@ -213,7 +236,7 @@ impl HeatBalance {
             Regime::Above
         } else {
             let s = self.surplus(current);
-            if s < 0.0 {
+            if s < -self.heater {
                 Regime::Below
             } else if s > p.max_cooling_power {
                 Regime::Above
@@ -223,12 +246,34 @@ impl HeatBalance {
         }
     }
 
-    /// Cooling power Qc [W] at temperature T [K] and current I [A].
-    pub fn cooling_power(&self, temperature: f64, current: f64) -> f64 {
-        match self.regime(temperature, current) {
+    /// What the thermostat takes away in `regime` at current I [A], Qc [W]: the cooling's
+    /// heat, or minus the heater's.
+    pub fn thermostat_power(&self, current: f64, regime: Regime) -> f64 {
+        match regime {
+            Regime::Below if self.heater > 0.0 => -self.heater,
             Regime::Below => 0.0,
             Regime::Held => self.surplus(current),
             Regime::Above => self.thermal.max_cooling_power,
+        }
+    }
+
+    /// Cooling power max(Qc, 0) [W] at temperature T [K] and current I [A].
+    pub fn cooling_power(&self, temperature: f64, current: f64) -> f64 {
+        let q = self.thermostat_power(current, self.regime(temperature, current));
+        if q < 0.0 {
+            0.0
+        } else {
+            q
+        }
+    }
+
+    /// The heater's power max(−Qc, 0) [W] at temperature T [K] and current I [A].
+    pub fn heating_power(&self, temperature: f64, current: f64) -> f64 {
+        let q = self.thermostat_power(current, self.regime(temperature, current));
+        if q < 0.0 {
+            -q
+        } else {
+            0.0
         }
     }
 
@@ -242,11 +287,7 @@ impl HeatBalance {
             p.nominal_temperature,
         );
         let alpha = (kv + kr * current) * current - 1.0 / p.thermal_resistance;
-        let cooling = if regime == Regime::Above {
-            p.max_cooling_power
-        } else {
-            0.0
-        };
+        let cooling = self.thermostat_power(current, regime);
         let beta = (self.voltage_intercept - kv * tn + (self.ohmic_resistance - kr * tn) * current
             - p.thermoneutral_voltage())
             * current

@@ -148,6 +148,7 @@ def test_a_restored_state_continues_the_same_temperature(driver):
         ("thermalResistance", 0.0, "thermalResistance"),
         ("initialTemperature", -3.0, "initialTemperature"),
         ("maxCoolingPower", -10.0, "maxCoolingPower"),
+        ("standbyHeaterPower", -5.0, "standbyHeaterPower"),
     ],
 )
 def test_bad_thermal_parameters_refuse_initialisation_with_their_name(driver, name, value, words):
@@ -214,3 +215,32 @@ def test_a_bad_ambient_temperature_is_refused_and_the_instance_goes_on(driver, a
     d.step(60.0)
     twin.step(60.0)
     assert d.get("stackTemperature", "energy") == twin.get("stackTemperature", "energy")
+
+
+def test_a_standby_heater_holds_the_hub_at_the_setpoint_and_draws_the_loss(driver):
+    """Two modules go to standby at 55 degC in 5 degC air with a 400 W heater each: the heater
+    makes up the loss (Ts - Ta)/Rth = 250 W, drawn on top of standbyPower, and the stack stays
+    at the setpoint; the energy is the constant draw times the time."""
+    d = driver(logging_on=True)
+    d.fmu.setupExperiment(startTime=0.0)
+    d.fmu.setBoolean([d.vr["thermalModel"]], [True])
+    d.fmu.setInteger([d.vr["nModules"], d.vr["dispatch"], d.vr["belowMinimum"]], [2, 2, 1])
+    d.set(
+        setpoint=80.0,
+        ambientTemperature=278.15,
+        standbyDuration=36_000.0,
+        standbyHeaterPower=400.0,
+        **{**THERMAL, "initialTemperature": 328.15},
+    )
+    d.fmu.enterInitializationMode()
+    d.fmu.exitInitializationMode()
+    hold = (328.15 - 278.15) / THERMAL["thermalResistance"]
+    standby = d.get("standbyPower")
+    d.step(1e-9, setpoint=0.0)
+    e0 = d.get("hubEnergy")
+    for _ in range(6):
+        d.step(600.0)
+        assert d.fmu.getInteger([d.vr["modulesStandby"]]) == [2]
+        assert d.get("stackTemperature") == 328.15
+        assert d.get("hubPower") == pytest.approx(2 * (standby + hold), rel=1e-12)
+    assert d.get("hubEnergy") - e0 == pytest.approx(2 * (standby + hold) * 3600.0, rel=1e-9)

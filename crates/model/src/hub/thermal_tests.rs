@@ -215,3 +215,116 @@ fn a_warm_stack_starts_warm_and_a_cold_one_cold_whatever_the_state() {
     );
     assert_eq!(hub.totals().starts, 1);
 }
+
+/// One module of a sequential hub that goes to standby (for ten hours) at 5 °C ambient,
+/// running at 80 % from `initial` [K] until the first step.
+fn standby_hub(heater: f64, initial: f64) -> Hub {
+    let thermal = ThermalParameters {
+        initial_temperature: initial,
+        standby_heater_power: heater,
+        ..ThermalParameters::default()
+    };
+    let mut cfg = config(
+        1,
+        DispatchPolicy::Sequential,
+        BelowMinimum::Standby,
+        thermal,
+    );
+    cfg.operation.standby_duration = 36_000.0;
+    let mut hub = Hub::new(Parameters::default(), cfg, Demand::Setpoint(80.0)).unwrap();
+    hub.set_ambient_temperature(278.15);
+    hub
+}
+
+#[test]
+fn a_standby_heater_holds_the_setpoint_and_draws_the_loss() {
+    let t = ThermalParameters::default();
+    let mut hub = standby_hub(400.0, t.cooling_setpoint);
+    let hold = (t.cooling_setpoint - 278.15) / t.thermal_resistance; // 250 W
+    let op = OperationParameters::default();
+    for _ in 0..120 {
+        hub.step(Demand::Setpoint(0.0), 60.0).unwrap();
+        assert_eq!(hub.count_in(OperatingState::Standby), 1);
+        assert_eq!(hub.readings().temperature, t.cooling_setpoint);
+        assert!((hub.readings().power - (op.standby_power + hold)).abs() < 1e-9);
+    }
+    let energy = (op.standby_power + hold) * 7200.0;
+    assert!((hub.totals().energy - energy).abs() < 1e-9 * energy);
+    // Held warm: a warm start.
+    assert_eq!(
+        start_time(&mut hub, Demand::Setpoint(80.0)) as f64,
+        op.warm_start_time
+    );
+}
+
+#[test]
+fn a_heater_too_weak_for_the_loss_slows_the_cooling() {
+    let t = ThermalParameters::default();
+    let heater = 100.0;
+    let mut hub = standby_hub(heater, t.cooling_setpoint);
+    let tau = t.thermal_resistance * t.heat_capacity;
+    // C dT/dt = Qh − (T − Ta)/Rth: toward Ta + Rth·Qh = 25 °C.
+    let toward = 278.15 + t.thermal_resistance * heater;
+    for k in 1..=12 {
+        hub.step(Demand::Setpoint(0.0), 600.0).unwrap();
+        let time = 600.0 * k as f64;
+        let want = toward + (t.cooling_setpoint - toward) * (-time / tau).exp();
+        assert!((hub.readings().temperature - want).abs() < 1e-9, "{k}");
+        let power = OperationParameters::default().standby_power + heater;
+        assert!((hub.readings().power - power).abs() < 1e-12);
+        assert!((hub.totals().energy - power * time).abs() < 1e-9 * power * time);
+    }
+}
+
+#[test]
+fn a_cool_stack_in_standby_is_heated_to_the_setpoint_then_held() {
+    let t = ThermalParameters::default();
+    let heater = 400.0;
+    let mut hub = standby_hub(heater, 303.15);
+    hub.step(Demand::Setpoint(0.0), 1.0).unwrap(); // one second at 80 %, then standby
+    hub.step(Demand::Setpoint(0.0), 1.0).unwrap();
+    let (t0, e0) = (hub.readings().temperature, hub.totals().energy);
+    assert!(t0 < 304.0, "{t0}");
+    let tau = t.thermal_resistance * t.heat_capacity;
+    let toward = 278.15 + t.thermal_resistance * heater; // 85 °C: above the setpoint
+    let reach = tau * ((toward - t0) / (toward - t.cooling_setpoint)).ln();
+    let hold = (t.cooling_setpoint - 278.15) / t.thermal_resistance;
+    let standby = OperationParameters::default().standby_power;
+    for h in [7.5, 60.0, 900.0] {
+        let mut copy = hub.clone();
+        let span = 900.0 * (1.0 + (reach / 900.0).ceil());
+        for _ in 0..(span / h).round() as usize {
+            copy.step(Demand::Setpoint(0.0), h).unwrap();
+        }
+        assert_eq!(copy.readings().temperature, t.cooling_setpoint, "h = {h}");
+        let energy = standby * span + heater * reach + hold * (span - reach);
+        let drawn = copy.totals().energy - e0;
+        assert!(
+            (drawn - energy).abs() < 1e-9 * energy,
+            "h = {h}: {drawn} vs {energy}"
+        );
+    }
+    // Half-way there, the exponential toward 85 °C.
+    let mut copy = hub.clone();
+    copy.step(Demand::Setpoint(0.0), reach / 2.0).unwrap();
+    let want = toward + (t0 - toward) * (-reach / 2.0 / tau).exp();
+    assert!((copy.readings().temperature - want).abs() < 1e-9);
+}
+
+#[test]
+fn without_a_heater_a_module_in_standby_cools_and_starts_cold() {
+    let t = ThermalParameters::default();
+    let mut hub = standby_hub(0.0, t.cooling_setpoint);
+    hub.step(Demand::Setpoint(0.0), 7200.0).unwrap();
+    let tau = t.thermal_resistance * t.heat_capacity;
+    let want = 278.15 + (t.cooling_setpoint - 278.15) * (-7200.0 / tau).exp();
+    assert!((hub.readings().temperature - want).abs() < 1e-9);
+    assert_eq!(
+        hub.readings().power,
+        OperationParameters::default().standby_power
+    );
+    assert_eq!(
+        start_time(&mut hub, Demand::Setpoint(80.0)) as f64,
+        OperationParameters::default().cold_start_time
+    );
+}

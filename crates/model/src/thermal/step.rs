@@ -45,8 +45,10 @@ pub struct ThermalStep {
     pub heat_charge: f64,
     /// ∫(T − Tn)·I² dt [K·A²·s] (the voltage's kR term of the energy).
     pub heat_squared: f64,
-    /// ∫Qc dt: heat the cooling removed [J].
+    /// ∫max(Qc, 0) dt: heat the cooling removed [J].
     pub cooling_energy: f64,
+    /// ∫max(−Qc, 0) dt: heat the standby heater supplied [J].
+    pub heating_energy: f64,
     /// Changes of the thermostat's regime within the step.
     pub regime_changes: u32,
 }
@@ -139,6 +141,7 @@ pub fn advance(
         out.heat_charge,
         out.heat_squared,
         out.cooling_energy,
+        out.heating_energy,
     ]
     .iter()
     .all(|x| x.is_finite());
@@ -208,11 +211,7 @@ fn constant_piece(
             None => t0 + d * span * phi1(a * span),
         };
         let integral = (t0 - p.nominal_temperature) * span + d * span * span * phi2(a * span);
-        let cooling = if regime == Regime::Above {
-            p.max_cooling_power
-        } else {
-            0.0
-        };
+        let cooling = balance.thermostat_power(current, regime);
         (end, integral, cooling, reach)
     };
     let span = reached.unwrap_or(length);
@@ -220,7 +219,11 @@ fn constant_piece(
     out.temperature_integral += integral;
     out.heat_charge += current * integral;
     out.heat_squared += current * current * integral;
-    out.cooling_energy += cooling * span;
+    if cooling < 0.0 {
+        out.heating_energy -= cooling * span;
+    } else {
+        out.cooling_energy += cooling * span;
+    }
     reached
 }
 
@@ -242,7 +245,7 @@ impl<P: CurrentPath> Balance<'_, P> {
             Regime::Above => temperature <= setpoint,
             Regime::Held => {
                 let s = self.balance.surplus(self.path.current(self.start + x));
-                s < 0.0 || s > self.balance.thermal.max_cooling_power
+                s < -self.balance.heater || s > self.balance.thermal.max_cooling_power
             }
         }
     }
@@ -263,11 +266,8 @@ impl<P: CurrentPath> System<f64, Vector5<f64>> for Balance<'_, P> {
         let b = self.balance;
         let current = self.path.current(self.start + x);
         let temperature = y[0];
-        let cooling = match self.regime {
-            Regime::Below => 0.0,
-            Regime::Held => b.surplus(current),
-            Regime::Above => b.thermal.max_cooling_power,
-        };
+        // Along a moving current the module runs: no heater (Qc ≥ 0 here).
+        let cooling = b.thermostat_power(current, self.regime);
         let deviation = temperature - b.thermal.nominal_temperature;
         dy[0] = b.rate(temperature, current, self.regime);
         dy[1] = deviation;

@@ -22,6 +22,7 @@ fn balance(thermal: ThermalParameters, ambient: f64) -> HeatBalance {
         voltage_intercept: 35.75,
         ohmic_resistance: 0.1529,
         ambient,
+        heater: 0.0,
     }
 }
 
