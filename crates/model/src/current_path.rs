@@ -1,7 +1,7 @@
 //! The stack current over one step as a function of time, for what is integrated along it
 //! (the stack temperature): the exact current of [`CurrentDynamics`] from the step's start.
 
-use super::dynamics::{CurrentDynamics, CurrentState, StepFactors};
+use super::dynamics::{CurrentDynamics, CurrentState, Envelope, StepFactors};
 use super::thermal::step::CurrentPath;
 
 /// Relative distance from the steady state [1] below which the current counts as constant.
@@ -37,6 +37,12 @@ impl CurrentPath for HeldSetpoint<'_> {
             && near(self.start.z2, steady.z2)
             && near(self.start.current, steady.current))
         .then_some(self.start.current)
+    }
+
+    /// Where the step tracks (the rate limit does not bind), in closed form.
+    fn envelope(&self, h: f64) -> Option<Envelope> {
+        self.dynamics
+            .tracking_envelope(&self.start, self.setpoint, h)
     }
 }
 

@@ -52,6 +52,17 @@ pub struct CurrentIntegrals {
     pub ramp_time: f64,
 }
 
+/// The current over one step where it is known in closed form.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Envelope {
+    /// Its smallest and largest value [A].
+    pub min: f64,
+    pub max: f64,
+    /// ∫I dt [A·s] and ∫I² dt [A²·s] over the step.
+    pub charge: f64,
+    pub current_squared: f64,
+}
+
 /// Constants of the current dynamics, derived once from the parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CurrentDynamics {
@@ -298,6 +309,41 @@ impl CurrentDynamics {
             q22: self.k22 * d.d2 * (1.0 + d.e2),
             q12: self.k12 * d.d12,
         }
+    }
+
+    /// The current over a step of `h` [s] from `state` with setpoint `u` [%] (clamped) held,
+    /// where the step tracks (I = I_tf = K·u + A e^(−λ1 t) + B e^(−λ2 t) throughout, A = a·δ1,
+    /// B = b·δ2): its extremes (the endpoints and the one stationary point, where
+    /// A λ1 e^(−λ1 t) = −B λ2 e^(−λ2 t), if it lies inside) and its integrals. None where the
+    /// rate limit may bind, and with compensation.
+    pub fn tracking_envelope(&self, state: &CurrentState, u: f64, h: f64) -> Option<Envelope> {
+        if self.compensated || !(h > 0.0) {
+            return None;
+        }
+        let step = self.tracking_step(h).step(state, u);
+        if !step.tracks {
+            return None;
+        }
+        let base = self.gain * u;
+        let (big_a, big_b) = (self.a * (state.z1 - base), self.b * (state.z2 - base));
+        let (start, end) = (state.current, step.state.current);
+        let (mut lo, mut hi) = (start.min(end), start.max(end));
+        let ratio = -(big_b * self.lambda2) / (big_a * self.lambda1);
+        if ratio > 0.0 && ratio.is_finite() {
+            let t = ratio.ln() / (self.lambda2 - self.lambda1);
+            if t > 0.0 && t < h {
+                let i =
+                    base + big_a * (-self.lambda1 * t).exp() + big_b * (-self.lambda2 * t).exp();
+                lo = lo.min(i);
+                hi = hi.max(i);
+            }
+        }
+        Some(Envelope {
+            min: lo,
+            max: hi,
+            charge: step.charge,
+            current_squared: step.current_squared,
+        })
     }
 
     /// The constants of a tracking step of length `h` [s].
@@ -760,6 +806,49 @@ mod tests {
     fn paper() -> (Parameters, CurrentDynamics) {
         let p = Parameters::default();
         (p, CurrentDynamics::new(&p))
+    }
+
+    #[test]
+    fn the_tracking_envelope_holds_the_current_and_its_integrals() {
+        let (_, d) = paper();
+        let mut rising = d.steady_state(70.0);
+        d.advance(&mut rising, 75.0, 200.0, &mut StepFactors::default());
+        for (start, u, h) in [
+            (d.steady_state(80.0), 65.0, 1.0),
+            (d.steady_state(80.0), 65.0, 40.0),
+            (rising, 75.0, 3.0),
+            (rising, 71.0, 50.0),
+        ] {
+            let env = d.tracking_envelope(&start, u, h).expect("tracks");
+            let mut ints = CurrentIntegrals::default();
+            let (mut lo, mut hi) = (start.current, start.current);
+            let n = 4000;
+            let mut s = start;
+            for _ in 0..n {
+                let piece = d.advance(&mut s, u, h / n as f64, &mut StepFactors::default());
+                ints.charge += piece.charge;
+                ints.current_squared += piece.current_squared;
+                lo = lo.min(s.current);
+                hi = hi.max(s.current);
+            }
+            assert!((env.charge - ints.charge).abs() < 1e-9 * ints.charge);
+            assert!(
+                (env.current_squared - ints.current_squared).abs() < 1e-9 * ints.current_squared
+            );
+            // The sampled extremes lie within the exact ones, and close to them.
+            assert!(
+                env.min <= lo + 1e-12 && env.max >= hi - 1e-12,
+                "{env:?} vs {lo} {hi}"
+            );
+            assert!(
+                lo - env.min < 1e-6 && env.max - hi < 1e-6,
+                "{env:?} vs {lo} {hi}"
+            );
+        }
+        // A step where the rate limit binds has no envelope.
+        assert!(d
+            .tracking_envelope(&d.steady_state(60.0), 100.0, 5.0)
+            .is_none());
     }
 
     /// Closed-form unlimited response to a setpoint step u0 → u1 from steady state:

@@ -15,6 +15,7 @@ use ode_solvers::dop_shared::IntegrationError;
 use ode_solvers::{Dopri5, System, Vector5};
 
 use super::{HeatBalance, Regime};
+use crate::dynamics::Envelope;
 use crate::roots::first_crossing;
 
 /// Relative tolerance of the integrator, per integrator step [1].
@@ -32,6 +33,10 @@ pub trait CurrentPath {
     fn current(&self, tau: f64) -> f64;
     /// The current, if it is the same over the whole step [A].
     fn constant(&self) -> Option<f64>;
+    /// Over a step of `h` [s], its extremes and integrals where they are known in closed form.
+    fn envelope(&self, _h: f64) -> Option<Envelope> {
+        None
+    }
 }
 
 /// What one step of the temperature gives.
@@ -117,6 +122,9 @@ pub fn advance(
         temperature,
         ..ThermalStep::default()
     };
+    if let Some(held) = held_throughout(balance, temperature, path, h) {
+        return Ok(held);
+    }
     let mut tau = 0.0;
     while tau < h {
         let regime = balance.regime(out.temperature, path.current(tau));
@@ -150,6 +158,61 @@ pub fn advance(
     } else {
         Err(ThermalError::NonFinite)
     }
+}
+
+/// The whole step in closed form where the thermostat holds the setpoint throughout while the
+/// current moves: the current's extremes (and the vertex of the surplus, a quadratic in I, if
+/// it lies between them) keep the surplus within [−Qh, Qmax]. T stays Ts; the integrals follow
+/// from ∫I dt and ∫I² dt: ∫(T − Tn) = (Ts − Tn)·h, ∫(T − Tn)·I^k = (Ts − Tn)·∫I^k, and
+/// ∫Qc = ∫s = (V(Ts, 0) − n·1.481 V)·∫I + R(Ts)·∫I² − (Ts − Ta)/Rth·h. None otherwise.
+fn held_throughout(
+    balance: &HeatBalance,
+    temperature: f64,
+    path: &impl CurrentPath,
+    h: f64,
+) -> Option<ThermalStep> {
+    if path.constant().is_some() {
+        return None;
+    }
+    let env = path.envelope(h)?;
+    let p = &balance.thermal;
+    if temperature != p.cooling_setpoint {
+        return None;
+    }
+    let deviation = temperature - p.nominal_temperature;
+    // s(I) = c2·I² + c1·I − loss.
+    let c2 = balance.ohmic_resistance + p.resistance_temperature_coefficient * deviation;
+    let c1 = balance.voltage_intercept + p.voltage_temperature_coefficient * deviation
+        - p.thermoneutral_voltage();
+    let loss = (temperature - balance.ambient) / p.thermal_resistance;
+    let within = |i: f64| {
+        let s = balance.surplus(i);
+        s >= -balance.heater && s <= p.max_cooling_power
+    };
+    let vertex = if c2 != 0.0 {
+        -c1 / (2.0 * c2)
+    } else {
+        f64::NAN
+    };
+    let vertex_inside = vertex > env.min && vertex < env.max;
+    if !(within(env.min) && within(env.max) && (!vertex_inside || within(vertex))) {
+        return None;
+    }
+    let surplus_integral = c1 * env.charge + c2 * env.current_squared - loss * h;
+    let (cooling_energy, heating_energy) = if surplus_integral < 0.0 {
+        (0.0, -surplus_integral)
+    } else {
+        (surplus_integral, 0.0)
+    };
+    Some(ThermalStep {
+        temperature,
+        temperature_integral: deviation * h,
+        heat_charge: deviation * env.charge,
+        heat_squared: deviation * env.current_squared,
+        cooling_energy,
+        heating_energy,
+        regime_changes: 0,
+    })
 }
 
 /// φ1(x) = (eˣ − 1)/x, φ1(0) = 1.

@@ -249,3 +249,76 @@ fn bad_parameters_are_refused_with_their_name() {
     }
     assert!(ThermalParameters::default().validate().is_ok());
 }
+
+/// `HeldSetpoint` without its closed-form envelope: the integrator's path.
+struct Integrated<'a>(crate::current_path::HeldSetpoint<'a>);
+
+impl CurrentPath for Integrated<'_> {
+    fn current(&self, tau: f64) -> f64 {
+        self.0.current(tau)
+    }
+    fn constant(&self) -> Option<f64> {
+        self.0.constant()
+    }
+}
+
+#[test]
+fn a_held_setpoint_along_a_tracking_current_is_the_integrators_result_in_closed_form() {
+    use crate::current_path::HeldSetpoint;
+    use crate::dynamics::CurrentDynamics;
+    use crate::parameters::Parameters;
+    let p = Parameters::default();
+    let dynamics = CurrentDynamics::new(&p);
+    let b = balance(ThermalParameters::default(), 288.15);
+    let ts = b.thermal.cooling_setpoint;
+    // From steady states at 80 % (a falling, tracking current) and mid-way after a rise.
+    let mut rising = dynamics.steady_state(70.0);
+    dynamics.advance(&mut rising, 75.0, 200.0, &mut Default::default());
+    for (start, u, h) in [
+        (dynamics.steady_state(80.0), 65.0, 1.0),
+        (dynamics.steady_state(80.0), 65.0, 30.0),
+        (rising, 75.0, 5.0),
+    ] {
+        let path = HeldSetpoint {
+            dynamics: &dynamics,
+            start,
+            setpoint: u,
+        };
+        assert!(path.envelope(h).is_some(), "the step tracks");
+        let closed = advance(&b, ts, &path, h).unwrap();
+        let integrated = advance(&b, ts, &Integrated(path), h).unwrap();
+        assert_eq!(closed.temperature, ts);
+        assert_eq!(closed.regime_changes, 0);
+        for (x, y) in [
+            (closed.heat_charge, integrated.heat_charge),
+            (closed.heat_squared, integrated.heat_squared),
+            (closed.cooling_energy, integrated.cooling_energy),
+            (closed.temperature_integral, integrated.temperature_integral),
+        ] {
+            assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "{x} vs {y}");
+        }
+        assert!(closed.cooling_energy > 0.0);
+    }
+}
+
+#[test]
+fn a_current_that_leaves_the_held_range_is_integrated_with_its_event() {
+    use crate::current_path::HeldSetpoint;
+    use crate::dynamics::CurrentDynamics;
+    use crate::parameters::Parameters;
+    let p = Parameters::default();
+    let dynamics = CurrentDynamics::new(&p);
+    // At 0 °C ambient the loss at Ts is 275 W: at 100 % the surplus is positive (held),
+    // falling to 60 % it turns negative (the stack cools below Ts) within the step.
+    let b = balance(ThermalParameters::default(), 273.15);
+    let (hi, lo) = (p.gain * 100.0, p.gain * 60.0);
+    assert!(b.surplus(hi) > 0.0 && b.surplus(lo) < 0.0);
+    let path = HeldSetpoint {
+        dynamics: &dynamics,
+        start: dynamics.steady_state(100.0),
+        setpoint: 60.0,
+    };
+    let step = advance(&b, b.thermal.cooling_setpoint, &path, 600.0).unwrap();
+    assert!(step.regime_changes >= 1);
+    assert!(step.temperature < b.thermal.cooling_setpoint);
+}
