@@ -118,13 +118,30 @@ pub fn advance(
     path: &impl CurrentPath,
     h: f64,
 ) -> Result<ThermalStep, ThermalError> {
+    if let Some(held) = held_throughout(balance, temperature, path, h) {
+        return Ok(held);
+    }
+    if path.constant().is_none() {
+        let regime = balance.regime(temperature, path.current(0.0));
+        if let Some(step) = super::collocation::step(balance, path, regime, temperature, h) {
+            return Ok(step);
+        }
+    }
+    integrate(balance, temperature, path, h)
+}
+
+/// [`advance`] piece by piece: closed forms at constant current, the error-controlled
+/// integrator along a moving one, the regime's changes located.
+pub(super) fn integrate(
+    balance: &HeatBalance,
+    temperature: f64,
+    path: &impl CurrentPath,
+    h: f64,
+) -> Result<ThermalStep, ThermalError> {
     let mut out = ThermalStep {
         temperature,
         ..ThermalStep::default()
     };
-    if let Some(held) = held_throughout(balance, temperature, path, h) {
-        return Ok(held);
-    }
     let mut tau = 0.0;
     while tau < h {
         let regime = balance.regime(out.temperature, path.current(tau));

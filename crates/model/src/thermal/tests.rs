@@ -1,7 +1,7 @@
 //! The heat balance against closed forms and conservation: steady states in each regime,
 //! the free cool-down, the energy balance along a moving current, and step-size independence.
 
-use super::step::{advance, CurrentPath, ThermalStep};
+use super::step::{advance, integrate, CurrentPath, ThermalStep};
 use super::*;
 
 /// A current that the test knows in closed form.
@@ -321,4 +321,46 @@ fn a_current_that_leaves_the_held_range_is_integrated_with_its_event() {
     let step = advance(&b, b.thermal.cooling_setpoint, &path, 600.0).unwrap();
     assert!(step.regime_changes >= 1);
     assert!(step.temperature < b.thermal.cooling_setpoint);
+}
+
+#[test]
+fn collocation_along_a_moving_current_is_the_integrators_result() {
+    use crate::current_path::HeldSetpoint;
+    use crate::dynamics::CurrentDynamics;
+    use crate::parameters::Parameters;
+    let p = Parameters::default();
+    let dynamics = CurrentDynamics::new(&p);
+    let b = balance(ThermalParameters::default(), 278.15);
+    let mut rising = dynamics.steady_state(60.0);
+    dynamics.advance(&mut rising, 100.0, 30.0, &mut Default::default());
+    // Warming from 20 °C (below) and cooling from 70 °C (above), along tracking and
+    // rate-limited currents, over steps of 1 s and 10 s.
+    for (t0, start, u) in [
+        (293.15, dynamics.steady_state(80.0), 65.0),
+        (293.15, rising, 100.0),
+        (343.15, dynamics.steady_state(100.0), 60.0),
+        (343.15, dynamics.steady_state(60.0), 100.0),
+    ] {
+        for h in [1.0, 10.0] {
+            let path = HeldSetpoint {
+                dynamics: &dynamics,
+                start,
+                setpoint: u,
+            };
+            let regime = b.regime(t0, path.current(0.0));
+            let fast = super::collocation::step(&b, &path, regime, t0, h)
+                .expect("the collocation step applies");
+            assert_eq!(fast, advance(&b, t0, &path, h).unwrap());
+            let slow = integrate(&b, t0, &path, h).unwrap();
+            assert!((fast.temperature - slow.temperature).abs() < 1e-9, "{t0} {h}");
+            for (x, y) in [
+                (fast.heat_charge, slow.heat_charge),
+                (fast.heat_squared, slow.heat_squared),
+                (fast.temperature_integral, slow.temperature_integral),
+                (fast.cooling_energy, slow.cooling_energy),
+            ] {
+                assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "{t0} {h}: {x} vs {y}");
+            }
+        }
+    }
 }
