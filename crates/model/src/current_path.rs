@@ -22,6 +22,12 @@ impl CurrentPath for HeldSetpoint<'_> {
         if tau <= 0.0 {
             return self.start.current;
         }
+        if let Some(i) = self
+            .dynamics
+            .tracked_current(&self.start, self.setpoint, tau)
+        {
+            return i;
+        }
         let mut state = self.start;
         self.dynamics
             .advance(&mut state, self.setpoint, tau, &mut StepFactors::default());

@@ -346,6 +346,27 @@ impl CurrentDynamics {
         })
     }
 
+    /// The current `t` [s] after `state` with setpoint `u` [%] (clamped) held, where it tracks
+    /// from the start (then for good: I_tf's rising slopes only decay), in closed form
+    /// K·u + a·δ1·e^(−λ1 t) + b·δ2·e^(−λ2 t); None where the rate limit may bind, and with
+    /// compensation.
+    #[inline]
+    pub fn tracked_current(&self, state: &CurrentState, u: f64, t: f64) -> Option<f64> {
+        if self.compensated {
+            return None;
+        }
+        let base = self.gain * u;
+        let (dev1, dev2) = (state.z1 - base, state.z2 - base);
+        let tf0 = base + self.a * dev1 + self.b * dev2;
+        let at_tf = tf0 - state.current <= 1e-12 * at_least(tf0.abs(), 1.0);
+        let max_rise = at_least(-self.lambda1 * self.a * dev1, 0.0)
+            + at_least(-self.lambda2 * self.b * dev2, 0.0);
+        (at_tf && max_rise <= self.ramp).then(|| {
+            base + self.a * dev1 * (-self.lambda1 * t).exp()
+                + self.b * dev2 * (-self.lambda2 * t).exp()
+        })
+    }
+
     /// The constants of a tracking step of length `h` [s].
     pub fn tracking_step(&self, h: f64) -> TrackingStep {
         self.tracking_from(h, &self.decay(h))
