@@ -37,14 +37,12 @@ impl<const S: usize> Rule<S> {
             // Lⱼ(τ) = Π_{k≠j} (τ − c_k)/(c_j − c_k) as coefficients of τ^0..τ^(S−1).
             let mut poly = [0.0; S];
             poly[0] = 1.0;
-            let mut degree = 0;
-            for k in (0..S).filter(|&k| k != j) {
+            for (degree, k) in (0..S).filter(|&k| k != j).enumerate() {
                 let scale = 1.0 / (nodes[j] - nodes[k]);
                 for d in (0..=degree).rev() {
                     poly[d + 1] += poly[d] * scale;
                     poly[d] *= -nodes[k] * scale;
                 }
-                degree += 1;
             }
             let integral = |x: f64| {
                 (0..S)
@@ -172,8 +170,24 @@ fn piece(
 ) -> Option<Outcome> {
     static GAUSS4: OnceLock<Rule<4>> = OnceLock::new();
     static GAUSS5: OnceLock<Rule<5>> = OnceLock::new();
-    let fine = solve(GAUSS5.get_or_init(gauss5), balance, path, regime, t0, start, length)?;
-    let coarse = solve(GAUSS4.get_or_init(gauss4), balance, path, regime, t0, start, length)?;
+    let fine = solve(
+        GAUSS5.get_or_init(gauss5),
+        balance,
+        path,
+        regime,
+        t0,
+        start,
+        length,
+    )?;
+    let coarse = solve(
+        GAUSS4.get_or_init(gauss4),
+        balance,
+        path,
+        regime,
+        t0,
+        start,
+        length,
+    )?;
     let scale = |x: f64, y: f64| ABSOLUTE_TOLERANCE + RELATIVE_TOLERANCE * x.abs().max(y.abs());
     let agrees = (fine.end - coarse.end).abs() <= scale(fine.end, coarse.end)
         && fine
@@ -193,7 +207,15 @@ fn piece(
     }
     let half = 0.5 * length;
     let first = piece(balance, path, regime, t0, start, half, halvings - 1)?;
-    let second = piece(balance, path, regime, first.end, start + half, length - half, halvings - 1)?;
+    let second = piece(
+        balance,
+        path,
+        regime,
+        first.end,
+        start + half,
+        length - half,
+        halvings - 1,
+    )?;
     Some(Outcome {
         end: second.end,
         integrals: [0, 1, 2].map(|k| first.integrals[k] + second.integrals[k]),

@@ -352,14 +352,20 @@ fn collocation_along_a_moving_current_is_the_integrators_result() {
                 .expect("the collocation step applies");
             assert_eq!(fast, advance(&b, t0, &path, h).unwrap());
             let slow = integrate(&b, t0, &path, h).unwrap();
-            assert!((fast.temperature - slow.temperature).abs() < 1e-9, "{t0} {h}");
+            assert!(
+                (fast.temperature - slow.temperature).abs() < 1e-9,
+                "{t0} {h}"
+            );
             for (x, y) in [
                 (fast.heat_charge, slow.heat_charge),
                 (fast.heat_squared, slow.heat_squared),
                 (fast.temperature_integral, slow.temperature_integral),
                 (fast.cooling_energy, slow.cooling_energy),
             ] {
-                assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "{t0} {h}: {x} vs {y}");
+                assert!(
+                    (x - y).abs() <= 1e-9 * y.abs().max(1.0),
+                    "{t0} {h}: {x} vs {y}"
+                );
             }
         }
     }
