@@ -13,7 +13,9 @@
 //! 4. [`dynamics`]: K, τz, τp1, τp2 from the negative steps, then the ramp limit r from the
 //!    positive steps, outliers removed, uncertainties from the Jacobian;
 //! 5. [`structure`]: first- and third-order candidates beside the second order (RMSE, AICc);
-//! 6. [`hydrogen`]: flow = c·I and the Faraday efficiency for the cell count.
+//! 6. [`hydrogen`]: flow = c·I and the Faraday efficiency for the cell count;
+//! 7. [`temperature`]: the curve's temperature coefficients kV, kR from the temperature
+//!    variation around the nominal temperature (for the FMU's thermal model).
 //!
 //! [`parameter_file`] gathers the fits under the FMU's parameter names and units with the
 //! statistics, [`report`] writes the Table-I-like text, [`validate`] compares a held-out day with the identified model, and
@@ -37,6 +39,7 @@ pub mod segments;
 pub mod stats;
 pub mod structure;
 pub mod synthetic;
+pub mod temperature;
 pub mod validate;
 
 use std::collections::BTreeMap;
@@ -53,6 +56,7 @@ use polarisation::{PolarisationFit, PolarisationOptions};
 use read::{BadRowCounts, ModuleLog};
 use segments::StepOptions;
 use structure::StructureCheck;
+use temperature::{TemperatureFit, TemperatureOptions};
 
 /// Settings of the whole identification.
 #[derive(Clone, Debug)]
@@ -63,6 +67,8 @@ pub struct FitOptions {
     pub polarisation: PolarisationOptions,
     /// Dynamics fit.
     pub dynamics: DynamicsOptions,
+    /// Temperature dependence of the curve.
+    pub temperature: TemperatureOptions,
     /// Cells in the stack, for the Faraday efficiency.
     pub cells: u32,
     /// A parameter whose relative standard error exceeds this is flagged [-].
@@ -78,6 +84,7 @@ impl Default for FitOptions {
             steps: StepOptions::default(),
             polarisation: PolarisationOptions::default(),
             dynamics: DynamicsOptions::default(),
+            temperature: TemperatureOptions::default(),
             cells: 23,
             poorly_determined: 0.05,
             base: Parameters::default(),
@@ -166,6 +173,9 @@ pub struct ModuleFit {
     pub structure: Stage<StructureCheck>,
     /// Hydrogen coefficient.
     pub hydrogen: Stage<HydrogenFit>,
+    /// The curve's temperature coefficients (for the thermal model; not part of the
+    /// parameter file's module sets).
+    pub temperature: Stage<TemperatureFit>,
     /// The resulting parameter set (identified values over the base set).
     pub parameters: Parameters,
     /// Which parameters were identified, with their estimates.
@@ -238,6 +248,10 @@ pub fn fit_module(log: &ModuleLog, options: &FitOptions) -> ModuleFit {
         hydrogen::fit_hydrogen(log, options.polarisation.running_current, options.cells).into();
     lap("hydrogen", &mut timings);
 
+    let temperature: Stage<TemperatureFit> =
+        temperature::fit_temperature_dependence(log, &options.temperature).into();
+    lap("temperature dependence", &mut timings);
+
     let mut parameters = base;
     let mut estimates = BTreeMap::new();
     if let Stage::Done(p) = &polarisation {
@@ -278,6 +292,7 @@ pub fn fit_module(log: &ModuleLog, options: &FitOptions) -> ModuleFit {
         dynamics,
         structure,
         hydrogen,
+        temperature,
         parameters,
         estimates,
         timings,

@@ -104,6 +104,10 @@ struct FitArgs {
     /// Allowed deviation from the nominal pressure for polarisation points [bar].
     #[arg(long, default_value_t = 0.1)]
     pressure_tolerance: f64,
+    /// Running samples within this distance of the nominal temperature fit the curve's
+    /// temperature coefficients kV, kR [K].
+    #[arg(long, default_value_t = 15.0)]
+    temperature_window: f64,
     /// Length of the pre-step window whose mean is subtracted [s].
     #[arg(long, default_value_t = 60.0)]
     pre_window: f64,
@@ -497,6 +501,10 @@ fn fit(args: FitArgs) -> Result<(), Error> {
     options.polarisation.temperature_tolerance = args.temperature_tolerance;
     options.polarisation.pressure = args.nominal_pressure;
     options.polarisation.pressure_tolerance = args.pressure_tolerance;
+    options.temperature.nominal = args.nominal_temperature;
+    options.temperature.window = args.temperature_window;
+    options.temperature.running_current = args.input.running_current;
+    options.temperature.pressure = (args.nominal_pressure, args.pressure_tolerance);
     options.dynamics.outlier_sigmas = args.outlier_sigmas;
     options.dynamics.trajectory = args.trajectory;
     options.dynamics.settle = args.input.settle;

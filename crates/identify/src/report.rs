@@ -268,6 +268,50 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
         format!("{} A", sig(fit.parameters.nominal_current, 5)),
         "given (not identified)".into(),
     );
+    let interval = |e: &Estimate, unit: &str| {
+        let half = crate::temperature::Z95 * e.standard_error;
+        format!(
+            "± {}  (95 %: {} … {} {unit})",
+            sig(e.standard_error, 2),
+            sig(e.value - half, 4),
+            sig(e.value + half, 4)
+        )
+    };
+    match &fit.temperature {
+        Stage::Done(t) => {
+            row(
+                "Temperature",
+                "kV",
+                format!("{} V/K", sig(t.voltage_coefficient.value, 4)),
+                interval(&t.voltage_coefficient, "V/K"),
+            );
+            match &t.resistance_coefficient {
+                Some(kr) => row(
+                    "",
+                    "kR",
+                    format!("{} Ω/K", sig(kr.value, 4)),
+                    interval(kr, "Ω/K"),
+                ),
+                None => row("", "kR", "not identified".into(), String::new()),
+            }
+            row(
+                "",
+                "RMSE",
+                format!("{} V", sig(t.rmse, 4)),
+                format!(
+                    "{} running points, {}…{} °C (σ {} K)",
+                    t.points,
+                    sig(t.temperature_range.0, 4),
+                    sig(t.temperature_range.1, 4),
+                    sig(t.temperature_spread, 3)
+                ),
+            );
+            for note in &t.notes {
+                row("", "note", note.clone(), String::new());
+            }
+        }
+        Stage::Skipped(why) => row("Temperature", "not identified", why.clone(), String::new()),
+    }
     let _ = writeln!(out);
     if let Stage::Done(d) = &fit.dynamics {
         let groups: Vec<String> = d
@@ -371,6 +415,15 @@ fn stage_json<T>(stage: &Stage<T>, f: impl Fn(&T) -> Value) -> Value {
     }
 }
 
+/// An estimate with its standard error and 95 % interval (±1.96 standard errors).
+fn estimate_json(e: &Estimate, unit: &str) -> Value {
+    let half = crate::temperature::Z95 * e.standard_error;
+    json!({
+        "value": num(e.value), "standardError": num(e.standard_error),
+        "interval95": [num(e.value - half), num(e.value + half)], "unit": unit,
+    })
+}
+
 fn num(v: f64) -> Value {
     if v.is_finite() {
         json!(v)
@@ -432,6 +485,15 @@ pub fn statistics_json(fit: &ModuleFit) -> Value {
                 "order": c.order, "parameters": c.parameters, "rmseA": num(c.rmse), "aicc": num(c.aicc), "poles": c.time_constants,
             })).collect::<Vec<_>>(),
             "failures": s.failures.iter().map(|(o, e)| json!({ "order": o, "reason": e })).collect::<Vec<_>>(),
+        })),
+        "temperature": stage_json(&fit.temperature, |t| json!({
+            "voltageTemperatureCoefficient": estimate_json(&t.voltage_coefficient, "V/K"),
+            "resistanceTemperatureCoefficient": t.resistance_coefficient.as_ref().map_or(Value::Null, |e| estimate_json(e, "Ohm/K")),
+            "voltageIntercept": estimate_json(&t.voltage_intercept, "V"),
+            "ohmicResistance": estimate_json(&t.ohmic_resistance, "Ohm"),
+            "rmseV": num(t.rmse), "points": t.points,
+            "temperatureRangeDegC": [t.temperature_range.0, t.temperature_range.1],
+            "temperatureSpreadK": num(t.temperature_spread), "notes": t.notes,
         })),
         "hydrogen": stage_json(&fit.hydrogen, |h| json!({
             "rmseNlPerH": num(h.rmse), "points": h.points, "cells": h.cells, "faradayEfficiency": num(h.faraday_efficiency),

@@ -77,8 +77,10 @@ pub struct CampaignSpec {
     pub pressure_noise: f64,
     /// Hydrogen flow sensor noise [Nl/h].
     pub h2_noise: f64,
-    /// Voltage rise per °C below 55 °C [V/°C].
+    /// Voltage rise per °C below 55 °C [V/°C] (the model's kV is its negative).
     pub temperature_coefficient: f64,
+    /// Change of the ohmic resistance per °C above 55 °C, the model's kR [Ω/K].
+    pub resistance_temperature_coefficient: f64,
     /// Voltage rise per bar below 29 bar [V/bar].
     pub pressure_coefficient: f64,
     /// Temperature dips per day.
@@ -122,6 +124,7 @@ impl Default for CampaignSpec {
             pressure_noise: 0.02,
             h2_noise: 1.0,
             temperature_coefficient: 0.08,
+            resistance_temperature_coefficient: 0.0,
             pressure_coefficient: 0.05,
             dips_per_day: 4,
             disturbed_fraction: 0.01,
@@ -289,6 +292,7 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
                 p.voltage_intercept
                     + p.ohmic_resistance * i_true
                     + spec.temperature_coefficient * (55.0 - temperature)
+                    + spec.resistance_temperature_coefficient * (temperature - 55.0) * i_true
                     + spec.pressure_coefficient * (29.0 - pressure)
             } else {
                 0.0

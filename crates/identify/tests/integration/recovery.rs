@@ -221,3 +221,74 @@ fn ten_days_recover_the_parameters_and_a_held_out_day() {
     assert_eq!(trace.rows.len(), v.running_rows);
     assert!(v.compared_rows > 25_000);
 }
+
+/// kV and kR from the warm-up after each start and the water-refill dips: a three-day
+/// campaign whose voltage carries kV = −0.08 V/K and kR = −1.5 mΩ/K.
+#[test]
+fn the_temperature_coefficients_are_recovered_within_their_intervals() {
+    let spec = CampaignSpec {
+        resistance_temperature_coefficient: -0.0015,
+        dips_per_day: 12,
+        ..CampaignSpec::default()
+    };
+    let days = synthetic::generate_campaign(&spec, 3).unwrap();
+    let dir = scratch("identify_temperature");
+    synthetic::write_campaign(&dir, &days, &CsvOptions::default()).unwrap();
+    let files = read::expand_inputs(std::slice::from_ref(&dir)).unwrap();
+    let logs = read::read_files(&files, &ReadOptions::default(), &|| {}).unwrap();
+    let fit = identify::fit_module(&logs[0], &FitOptions::default());
+    let Stage::Done(t) = &fit.temperature else {
+        panic!("temperature stage skipped: {:?}", fit.temperature);
+    };
+    let kv = t.voltage_coefficient;
+    let kr = t.resistance_coefficient.expect("kR identified");
+    // Within four standard errors of the truth, and the standard errors small enough to say
+    // something (kV to 5 %, kR to 30 %).
+    assert!(
+        (kv.value + spec.temperature_coefficient).abs() < 4.0 * kv.standard_error,
+        "{kv:?}"
+    );
+    assert!(
+        (kr.value + 0.0015).abs() < 4.0 * kr.standard_error,
+        "{kr:?}"
+    );
+    assert!(
+        kv.standard_error < 0.05 * 0.08 && kr.standard_error < 0.3 * 0.0015,
+        "{kv:?} {kr:?}"
+    );
+    assert!(
+        (t.ohmic_resistance.value - spec.truth.ohmic_resistance).abs()
+            < 0.01 * spec.truth.ohmic_resistance
+    );
+    assert!(t.rmse < 1.2 * spec.voltage_noise, "{}", t.rmse);
+}
+
+/// Without temperature variation the stage says so instead of fitting noise.
+#[test]
+fn a_constant_temperature_leaves_the_coefficients_unidentified_with_the_reason() {
+    let spec = CampaignSpec {
+        dips_per_day: 0,
+        ..CampaignSpec::default()
+    };
+    let days = synthetic::generate_campaign(&spec, 1).unwrap();
+    let dir = scratch("identify_temperature_flat");
+    synthetic::write_campaign(&dir, &days, &CsvOptions::default()).unwrap();
+    let files = read::expand_inputs(std::slice::from_ref(&dir)).unwrap();
+    let logs = read::read_files(&files, &ReadOptions::default(), &|| {}).unwrap();
+    let options = FitOptions {
+        temperature: aem_identify::temperature::TemperatureOptions {
+            // Past the warm-up, which ends below 54 °C: only the flat running remains.
+            window: 1.0,
+            ..Default::default()
+        },
+        ..FitOptions::default()
+    };
+    let fit = identify::fit_module(&logs[0], &options);
+    match &fit.temperature {
+        Stage::Skipped(why) => assert!(
+            why.contains("not identifiable") && why.contains("varies by"),
+            "{why}"
+        ),
+        Stage::Done(t) => panic!("fitted {t:?}"),
+    }
+}
