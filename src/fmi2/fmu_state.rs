@@ -250,6 +250,7 @@ impl SavedState {
                     w.f64(x);
                 }
                 w.u64(t.starts);
+                w.u64(t.warm_starts);
                 for x in [t.charge, t.current_squared, t.starting] {
                     w.f64(x);
                 }
@@ -569,6 +570,7 @@ fn read_hub(r: &mut Reader) -> Result<HubSnapshot, String> {
         h2_produced: r.finite()?,
         running: r.finite()?,
         starts: r.u64()?,
+        warm_starts: r.u64()?,
         charge: r.finite()?,
         current_squared: r.finite()?,
         starting: r.finite()?,

@@ -140,7 +140,8 @@ pub fn module_parameter(var: RealVariable) -> Option<ModuleParameter> {
         | AcPower
         | HubAcPower
         | HubAcEnergy
-        | StandbyHeaterPower => None,
+        | StandbyHeaterPower
+        | WarmStarts => None,
     }
 }
 
@@ -186,7 +187,7 @@ fn setting_mut(settings: &mut PlantSettings, var: RealVariable) -> Option<&mut f
         | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower
         | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts
         | Frequency | ReserveRequest | AmbientTemperature | StackTemperature | CoolingPower
-        | AcPower | HubAcPower | HubAcEnergy => None,
+        | AcPower | HubAcPower | HubAcEnergy | WarmStarts => None,
     }
 }
 
@@ -256,7 +257,8 @@ pub fn real_input_mut(inputs: &mut Inputs, var: RealVariable) -> Option<&mut f64
         | AcPower
         | HubAcPower
         | HubAcEnergy
-        | StandbyHeaterPower => None,
+        | StandbyHeaterPower
+        | WarmStarts => None,
     }
 }
 
@@ -284,6 +286,7 @@ pub fn real_output(var: RealVariable, plant: &Plant, reserve_request: f64) -> Op
         AcPower => Some(plant.ac_power()),
         HubAcPower => Some(plant.hub_ac_power()),
         HubAcEnergy => Some(plant.hub_ac_energy()),
+        WarmStarts => Some(plant.warm_starts()),
         Setpoint
         | PowerReference
         | Gain

@@ -108,6 +108,8 @@ pub struct HubTotals {
     pub running: f64,
     /// Starts summed over modules.
     pub starts: u64,
+    /// Of them, warm starts (warmStartTime).
+    pub warm_starts: u64,
     /// Charge ∫ΣI dt [A·s] and ∫ΣI² dt [A²·s] summed over modules.
     pub charge: f64,
     pub current_squared: f64,
@@ -125,6 +127,7 @@ impl HubTotals {
         self.current_squared += part.current_squared;
         self.starting += part.starting;
         self.starts = self.starts.saturating_add(part.starts);
+        self.warm_starts = self.warm_starts.saturating_add(part.warm_starts);
     }
 }
 
@@ -515,6 +518,9 @@ impl Hub {
             totals.starts = totals
                 .starts
                 .saturating_add(g.count as u64 * t.starts as u64);
+            totals.warm_starts = totals
+                .warm_starts
+                .saturating_add(g.count as u64 * t.warm_starts as u64);
             if self.config.policy == DispatchPolicy::Rotation {
                 g.starts = g.starts.saturating_add(t.starts as u64);
             }

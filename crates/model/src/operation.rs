@@ -201,6 +201,8 @@ pub struct UnitTotals {
     pub starting: f64,
     /// Starts (entries into Curve).
     pub starts: u32,
+    /// Of them, warm starts (warmStartTime).
+    pub warm_starts: u32,
     /// Why the stack temperature could not be advanced, if it could not (the step is then
     /// refused by the hub).
     pub failure: Option<ThermalError>,
@@ -347,6 +349,7 @@ impl UnitState {
                     };
                     self.enter(timed(Curve, duration));
                     totals.starts += 1;
+                    totals.warm_starts += u32::from(warm);
                 }
                 (Curve, Stop) => self.enter(UnitState::idle()),
                 (Curve, Run(_)) => {

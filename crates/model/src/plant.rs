@@ -649,6 +649,15 @@ impl Plant {
         }
     }
 
+    /// Of the start-ups, the warm ones (in warmStartTime: from standby, or with the stack
+    /// temperature modelled from a stack at least warmStartTemperature) [1].
+    pub fn warm_starts(&self) -> f64 {
+        match self {
+            Plant::Module(_) => 0.0,
+            Plant::Hub(hub, _) => hub.totals().warm_starts as f64,
+        }
+    }
+
     /// Stack temperature [K]: the module's (a hub: the mean over its modules) with the thermal
     /// model, else the polarisation curve's (Table I: 55 °C).
     pub fn stack_temperature(&self) -> f64 {

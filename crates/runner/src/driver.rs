@@ -51,12 +51,13 @@ const MODULE_PARAMETERS: [&str; 11] = [
 ];
 
 /// Outputs read at the end of the run.
-const TOTALS: [&str; 5] = [
+const TOTALS: [&str; 6] = [
     "hubEnergy",
     "hubH2Produced",
     "starts",
     "runningHours",
     "hubAcEnergy",
+    "warmStarts",
 ];
 
 /// An fmi2 call's result: OK or Warning pass (the warning's text is collected).
@@ -308,6 +309,7 @@ pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>
         starts: since(2),
         running_hours: since(3),
         grid_energy: since(4),
+        warm_starts: since(5),
     };
     Ok((totals, sums))
 }

@@ -53,6 +53,8 @@ pub struct Totals {
     /// hubH2Produced [kg] (converted with the model description's display unit).
     pub hydrogen: f64,
     pub starts: f64,
+    /// warmStarts: of the starts, the warm ones.
+    pub warm_starts: f64,
     /// runningHours [h], summed over the modules.
     pub running_hours: f64,
 }
@@ -99,6 +101,14 @@ pub fn row(totals: &Totals, sums: Option<&Sums>) -> Map<String, Value> {
     );
     put("starts per module [1]", number(totals.starts / modules));
     put(
+        "warm starts per module [1]",
+        number(totals.warm_starts / modules),
+    );
+    put(
+        "cold starts per module [1]",
+        number((totals.starts - totals.warm_starts) / modules),
+    );
+    put(
         "running hours per module [h]",
         number(totals.running_hours / modules),
     );
@@ -135,6 +145,7 @@ mod tests {
             grid_energy: 131e6,
             hydrogen: 2.0,
             starts: 4.0,
+            warm_starts: 3.0,
             running_hours: 3.0,
         };
         let row = row(&totals, Some(&sums));
@@ -144,6 +155,8 @@ mod tests {
         assert_eq!(get("grid import [MWh]"), 4e6 / J_PER_MWH);
         assert!((get("rms tracking error [MW]") - (8.0f64 / 3.0).sqrt()).abs() < 1e-12);
         assert_eq!(get("starts per module [1]"), 2.0);
+        assert_eq!(get("warm starts per module [1]"), 1.5);
+        assert_eq!(get("cold starts per module [1]"), 0.5);
         assert_eq!(get("hub rated power [MW]"), 50.0);
         assert_eq!(get("full-load hours [h]"), 122e6 / 3600.0 / 50e6);
         assert_eq!(
@@ -168,6 +181,7 @@ mod tests {
             grid_energy: 0.0,
             hydrogen: 0.0,
             starts: 0.0,
+            warm_starts: 0.0,
             running_hours: 0.0,
         };
         let row = row(&totals, None);

@@ -19,6 +19,8 @@ KPIS = {
     "grid import [MWh]": "sum over steps of max(hub's grid draw - reference, 0) energy",
     "full-load hours [h]": "energy drawn / hub rated power",
     "starts per module [1]": "start-ups summed over the modules / modules",
+    "warm starts per module [1]": "of them, the warm ones (warmStartTime: from standby, or a stack at least warmStartTemperature)",
+    "cold starts per module [1]": "of them, the cold ones (coldStartTime)",
     "running hours per module [h]": "running time summed over the modules / modules",
     "rms tracking error [MW]": "RMS over steps of the hub's step-mean power minus the reference capped at the hub's rated power",
 }

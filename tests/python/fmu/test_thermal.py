@@ -244,3 +244,7 @@ def test_a_standby_heater_holds_the_hub_at_the_setpoint_and_draws_the_loss(drive
         assert d.get("stackTemperature") == 328.15
         assert d.get("hubPower") == pytest.approx(2 * (standby + hold), rel=1e-12)
     assert d.get("hubEnergy") - e0 == pytest.approx(2 * (standby + hold) * 3600.0, rel=1e-9)
+    # Held at 55 degC, both restart warm (in warmStartTime).
+    d.step(d.get("warmStartTime"), setpoint=80.0)
+    assert d.fmu.getInteger([d.vr["modulesRunning"]]) == [2]
+    assert d.get("starts", "warmStarts") == [2.0, 2.0]

@@ -101,6 +101,8 @@ column = "power [kW]"
         "wind not absorbed [MWh]": 0.0,
         "grid import [MWh]": 0.0,
         "starts per module [1]": 0.0,
+        "warm starts per module [1]": 0.0,
+        "cold starts per module [1]": 0.0,
         "running hours per module [h]": hours,
         "rms tracking error [MW]": 0.0,
     }

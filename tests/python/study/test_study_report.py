@@ -171,6 +171,8 @@ def test_written_files_and_plots(crossed):
             "wind_not_absorbed_MWh",
             "full-load_hours_h",
             "starts_per_module_1",
+            "warm_starts_per_module_1",
+            "cold_starts_per_module_1",
             "running_hours_per_module_h",
         )
     }

@@ -53,6 +53,7 @@ impl Stepper {
         tally.current_squared_time[k] += c * t.current_squared;
         tally.starting[k] += c * t.starting;
         tally.starts += g.count as u64 * t.starts as u64;
+        tally.warm_starts += g.count as u64 * t.warm_starts as u64;
         if self.rotation {
             g.running += t.running;
             g.starts = g.starts.saturating_add(t.starts as u64);

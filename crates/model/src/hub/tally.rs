@@ -37,6 +37,7 @@ pub(super) struct Tally {
     pub temperature: Lane,
     pub cooling: Lane,
     pub starts: u64,
+    pub warm_starts: u64,
     /// Modules dispatched and Steady.
     pub carrying: u32,
     /// Modules Steady, and in each operating state.
@@ -67,6 +68,7 @@ impl Default for Tally {
             temperature: zero,
             cooling: zero,
             starts: 0,
+            warm_starts: 0,
             carrying: 0,
             steady: 0,
             counts: [0; 5],
@@ -200,6 +202,7 @@ impl Tally {
             current_squared: fold(&self.current_squared_time),
             starting: fold(&self.starting),
             starts: self.starts,
+            warm_starts: self.warm_starts,
             carrying: self.carrying,
             others: fold(&self.others),
             next_event: self.next_event,
@@ -229,6 +232,7 @@ pub(super) struct Part {
     pub current_squared: f64,
     pub starting: f64,
     pub starts: u64,
+    pub warm_starts: u64,
     pub carrying: u32,
     pub others: f64,
     pub next_event: f64,

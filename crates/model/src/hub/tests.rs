@@ -528,3 +528,24 @@ fn start_counters_of_a_restored_state_saturate() {
         .iter()
         .all(|g| g.starts >= u64::MAX - 1));
 }
+
+#[test]
+fn starts_from_standby_are_warm_and_from_off_cold() {
+    let p = Parameters::default();
+    for (below, warm) in [(BelowMinimum::Standby, 4), (BelowMinimum::Off, 0)] {
+        let mut hub = Hub::new(
+            p,
+            config(4, DispatchPolicy::Sequential, below),
+            Demand::Setpoint(90.0),
+        )
+        .unwrap();
+        run(&mut hub, Demand::Setpoint(0.0), 600.0, 10.0);
+        run(&mut hub, Demand::Setpoint(90.0), 600.0, 10.0);
+        assert_eq!(hub.count_in(OperatingState::Steady), 4, "{below:?}");
+        assert_eq!(
+            (hub.totals().starts, hub.totals().warm_starts),
+            (4, warm),
+            "{below:?}"
+        );
+    }
+}

@@ -196,6 +196,7 @@ fn a_warm_stack_starts_warm_and_a_cold_one_cold_whatever_the_state() {
         start_time(&mut hub, Demand::Setpoint(80.0)) as f64,
         op.warm_start_time
     );
+    assert_eq!((hub.totals().starts, hub.totals().warm_starts), (1, 1));
     // In Standby but colder than the warm-start temperature: a cold start.
     let cold = ThermalParameters {
         warm_start_temperature: 350.0,
@@ -214,6 +215,7 @@ fn a_warm_stack_starts_warm_and_a_cold_one_cold_whatever_the_state() {
         op.cold_start_time
     );
     assert_eq!(hub.totals().starts, 1);
+    assert_eq!(hub.totals().warm_starts, 0);
 }
 
 /// One module of a sequential hub that goes to standby (for ten hours) at 5 °C ambient,
