@@ -501,6 +501,7 @@ COMMANDS = [
         for name, guide, what in [
             ("step_schedule", "getting-started.md", "the demo: one module through a setpoint step schedule"),
             ("cold_start", "model.md", "a cold morning start with the stack temperature modelled"),
+            ("winter_week", "hub.md", "a winter week of a wind-following hub: temperatures, starts, the grid side"),
             ("step_responses", "validation.md", "the paper's step responses"),
             ("validation_day", "validation.md", "identify on ten synthetic days, validate on the eleventh"),
             ("wind_hub", "hub.md", "25 000 modules following a 64 MW wind farm"),

@@ -27,6 +27,7 @@ COMMANDS = [
     for m in (
         "examples.step_schedule",
         "examples.cold_start",
+        "examples.winter_week",
         "examples.step_responses",
         "examples.validation_day",
         "wind.farm",
@@ -87,6 +88,22 @@ def closed_stdout_case(name, tmp, fmu):
         return (
             ["-m", "aem_electrolyser.examples.cold_start", "--fmu", fmu, "--out", tmp / "cs"],
             [tmp / "cs/cold_start.csv", tmp / "cs/cold_start.png"],
+        )
+    if name == "winter_week":
+        return (
+            [
+                "-m",
+                "aem_electrolyser.examples.winter_week",
+                "--fmu",
+                fmu,
+                "--out",
+                tmp / "ww",
+                "--days",
+                "0.05",
+                "--modules",
+                "4",
+            ],
+            [tmp / "ww/winter_week.csv", tmp / "ww/winter_week.png"],
         )
     if name == "step_responses":
         return (
@@ -179,6 +196,7 @@ def closed_stdout_case(name, tmp, fmu):
     [
         "step_schedule",
         "cold_start",
+        "winter_week",
         "step_responses",
         "wind_farm",
         "wind_hub",
@@ -222,6 +240,7 @@ def unwritable_case(name, blocked, tmp, fmu):
     return {
         "step_schedule": ["-m", "aem_electrolyser.examples.step_schedule", "--fmu", fmu, "--out", blocked / "ss"],
         "cold_start": ["-m", "aem_electrolyser.examples.cold_start", "--fmu", fmu, "--out", blocked / "cs"],
+        "winter_week": ["-m", "aem_electrolyser.examples.winter_week", "--fmu", fmu, "--out", blocked / "ww"],
         "step_responses": ["-m", "aem_electrolyser.examples.step_responses", "--fmu", fmu, "--out", blocked],
         "validation_day": ["-m", "aem_electrolyser.examples.validation_day", "--out", blocked],
         "wind_farm": ["-m", "aem_electrolyser.wind.farm", "--out", blocked],
@@ -244,6 +263,7 @@ def unwritable_case(name, blocked, tmp, fmu):
     [
         "step_schedule",
         "cold_start",
+        "winter_week",
         "step_responses",
         "validation_day",
         "wind_farm",

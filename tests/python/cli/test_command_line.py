@@ -37,6 +37,7 @@ def script(name):
 PROGRAMS = {
     "step_schedule": module("examples.step_schedule"),
     "cold_start": module("examples.cold_start"),
+    "winter_week": module("examples.winter_week"),
     "step_responses": module("examples.step_responses"),
     "validation_day": module("examples.validation_day"),
     "wind_hub": module("examples.wind_hub"),
@@ -93,6 +94,15 @@ TABLE = [
     *fmu_cases("cold_start"),
     case("cold_start", "misspelled-option", ["--fum", "x", *OUT], ["unknown option --fum"], near="--fmu"),
     out_file_case("cold_start"),
+    # --- examples.winter_week
+    *fmu_cases("winter_week"),
+    case("winter_week", "modules-0", ["--modules", "0", *OUT], ["--modules", "positive"]),
+    case("winter_week", "days-negative", ["--days", "-1", *OUT], ["--days", "positive"]),
+    case("winter_week", "days-too-short", ["--days", "0.0001", *OUT], ["--days", "shorter than two 60 s steps"]),
+    case(
+        "winter_week", "misspelled-option", ["--modueles", "3", *OUT], ["unknown option --modueles"], near="--modules"
+    ),
+    out_file_case("winter_week"),
     # --- examples.step_responses
     *fmu_cases("step_responses"),
     case("step_responses", "duration-0", ["--duration", "0", *OUT], ["--duration", "positive"]),
@@ -473,6 +483,12 @@ FAILURES = [
         ["--fmu", "{guid_fmu}", *OUT],
         "does not match the model description",
         id="cold_start:fmu-refuses-to-instantiate",
+    ),
+    pytest.param(
+        "winter_week",
+        ["--fmu", "{guid_fmu}", "--days", "0.01", *OUT],
+        "does not match the model description",
+        id="winter_week:fmu-refuses-to-instantiate",
     ),
     pytest.param(
         "step_responses",

@@ -174,3 +174,36 @@ def test_the_cold_start_warms_the_stack_and_costs_what_its_voltage_says(fmu_path
     assert extra > 0.0
     assert extra == pytest.approx(trapezoid, rel=2e-2)
     assert "reaches 55 °C after" in out and "the cold morning costs" in out
+
+
+def test_the_winter_week_compares_the_plant_with_the_papers_hub(fmu_path, tmp_path):
+    """aem_electrolyser.examples.winter_week on half a day of 8 modules: the paper's hub is at
+    55 °C throughout and draws from the grid exactly its electric energy; the plant's stacks
+    stay between the coldest air and the setpoint, and its grid energy exceeds its electric
+    energy by the supply losses and auxiliaries, so its specific energy on the grid side is
+    higher; the KPI table's columns are the three hubs."""
+    out = run_example("winter_week", "--fmu", fmu_path, "--out", tmp_path, "--days", "0.5", "--modules", "8")
+    rows = read_rows(tmp_path / "winter_week.csv")
+    assert all("[" in name for name in rows[0]), "every column has its unit"
+    col = {name: np.array([float(r[name]) for r in rows]) for name in rows[0]}
+    assert len(rows) == 0.5 * 86400 / 60 + 1
+    np.testing.assert_array_equal(col["paper mean stack temperature [degC]"], 55.0)
+    coldest = col["ambient temperature [degC]"].min()
+    for name in ("plant", "heated"):
+        t = col[f"{name} mean stack temperature [degC]"]
+        assert np.all(t >= coldest - 1e-9) and np.all(t <= 55.0 + 1e-9), name
+    lines = out.splitlines()
+    header = next(line for line in lines if line.split() == ["paper", "plant", "heated"])
+    table = {}
+    for line in lines[lines.index(header) + 1 :]:
+        if not line.startswith(("hydrogen", "grid", "supply", "specific", "cold", "warm")):
+            break
+        key, *values = line.rsplit(None, 3)
+        table[key] = dict(zip(("paper", "plant", "heated"), map(float, values)))
+    losses = table["supply losses and auxiliaries [MWh]"]
+    assert losses["paper"] == 0.0 and losses["plant"] > 0.0 and losses["heated"] > 0.0
+    grid, electric = table["specific energy, grid side [kWh/kg]"], table["specific energy, electric [kWh/kg]"]
+    assert grid["paper"] == electric["paper"]
+    assert grid["plant"] > electric["plant"] and grid["plant"] > grid["paper"]
+    for name in ("paper", "plant", "heated"):
+        assert table["cold starts [1]"][name] >= 0 and table["warm starts [1]"][name] >= 0
