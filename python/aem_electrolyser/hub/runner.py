@@ -2,8 +2,10 @@
 native FMI calls with preallocated arguments (three calls per step, a few µs).
 
 The hub draws `powerReference` (powerInput = true); the frequency f[k] (or a power reference
-p[k]) is set at t[k] and held over [t[k], t[k+1]]; the trace holds hubPower and reserveRequest
-at every t[k] (the state reached with the inputs of the previous interval). The FMU's log
+p[k]) is set at t[k] and held over [t[k], t[k+1]]; the trace holds the power the grid sees
+(hubAcPower: hubPower with the supplies' losses and the auxiliaries, the same number when they
+are zero, the default) and reserveRequest at every t[k] (the state reached with the inputs of
+the previous interval). The FMU's log
 messages (the window's shortfalls, ramp-limited increases) are counted in `messages`, not
 printed.
 """
@@ -27,19 +29,22 @@ __all__ = ["Hub", "HubRunner", "MESSAGES"]
 @dataclass(frozen=True)
 class Hub:
     """The hub under test: modules, dispatch (1 equal, 2 sequential), belowMinimum (0 stay at
-    the minimum, 1 standby), baseline as a fraction of rated power, compensation."""
+    the minimum, 1 standby), baseline as a fraction of rated power, compensation, and further
+    FMU parameters set by name ((name, value) pairs: the grid side, the stack temperature)."""
 
     n_modules: int = 25_000
     dispatch: int = 1
     below_minimum: int = 0
     baseline: float = 0.8
     compensation: bool = False
+    settings: tuple = ()
 
     def describe(self) -> str:
         policy = {1: "equal", 2: "sequential", 3: "rotation"}[self.dispatch]
+        settings = "".join(f", {name} = {value}" for name, value in self.settings)
         return (
             f"{self.n_modules} modules, {policy} dispatch, baseline {100 * self.baseline:.0f} % of rated power, "
-            f"compensation {'on' if self.compensation else 'off'}"
+            f"compensation {'on' if self.compensation else 'off'}{settings}"
         )
 
 
@@ -51,14 +56,21 @@ class HubRunner:
         self.md = read_model_description(str(self.fmu_path))
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.unzipdir = extract(str(self.fmu_path))
-        start = {
-            name: float(self.vars[name].start)
-            for name in ("gain", "voltageIntercept", "ohmicResistance", "maxSetpoint", "minSetpoint", "standbyPower")
-        }
+        value = dict(hub.settings)
+        names = ("gain", "voltageIntercept", "ohmicResistance", "maxSetpoint", "minSetpoint", "standbyPower")
+        losses = ("supplyNoLoadLoss", "supplyLossVoltage", "supplyLossResistance", "auxiliaryPower")
+        start = {name: float(value.get(name, self.vars[name].start)) for name in names + losses}
+        grid_side = str(value.get("gridSideReference", self.vars["gridSideReference"].start)).lower() == "true"
 
         def module_power(u):
+            """A running module's steady power at u [%] as the power reference means it (the
+            stack's, or with gridSideReference the grid's) [W]."""
             i = start["gain"] * u
-            return (start["voltageIntercept"] + start["ohmicResistance"] * i) * i
+            stack = (start["voltageIntercept"] + start["ohmicResistance"] * i) * i
+            if not grid_side:
+                return stack
+            loss = start["supplyNoLoadLoss"] + (start["supplyLossVoltage"] + start["supplyLossResistance"] * i) * i
+            return stack + loss + start["auxiliaryPower"]
 
         #: Rated power of the hub [W]: every module at maxSetpoint.
         self.rated_power = hub.n_modules * module_power(start["maxSetpoint"])
@@ -73,7 +85,7 @@ class HubRunner:
         shutil.rmtree(self.unzipdir, ignore_errors=True)
 
     def run(self, t, frequency=None, power_reference=None, parameters=None):
-        """hubPower and reserveRequest [W] at every t[k] for the inputs held from t[k]."""
+        """hubAcPower and reserveRequest [W] at every t[k] for the inputs held from t[k]."""
         t = np.asarray(t, float)
         fmu = FMU2Slave(
             guid=self.md.guid,
@@ -103,6 +115,14 @@ class HubRunner:
             [self.vars["powerInput"].valueReference, self.vars["reserveCompensation"].valueReference],
             [True, h.compensation],
         )
+        for name, value in h.settings:
+            v = self.vars[name]
+            if v.type == "Real":
+                fmu.setReal([v.valueReference], [float(value)])
+            elif v.type in ("Integer", "Enumeration"):
+                fmu.setInteger([v.valueReference], [int(value)])
+            else:
+                fmu.setBoolean([v.valueReference], [str(value).lower() == "true"])
         reals = dict(parameters or {})
         reals["powerReference"] = self.baseline if power_reference is None else float(power_reference[0])
         if frequency is not None:
@@ -120,7 +140,7 @@ class HubRunner:
         driven = "frequency" if frequency is not None else "powerReference"
         values = np.asarray(frequency if frequency is not None else power_reference, float)
         vr_in = (ctypes.c_uint * 1)(self.vars[driven].valueReference)
-        vr_out = (ctypes.c_uint * 2)(self.vars["hubPower"].valueReference, self.vars["reserveRequest"].valueReference)
+        vr_out = (ctypes.c_uint * 2)(self.vars["hubAcPower"].valueReference, self.vars["reserveRequest"].valueReference)
         x_in, x_out = (ctypes.c_double * 1)(), (ctypes.c_double * 2)()
         # The library's own entry points (fmpy's wrappers add a Python call per FMI call); every
         # status is checked all the same.

@@ -2,7 +2,8 @@
 """Prequalification of an electrolyser hub for frequency reserves, on the packaged FMU.
 
     aem-prequalify [--modules 25000] [--dispatch equal] [--baseline 80]
-        [--compensation both] [--products all] [--out out/prequalification] [--no-plots]
+        [--compensation both] [--products all] [--parameter NAME=VALUE ...]
+        [--out out/prequalification] [--no-plots]
 
 For each hub (dispatch × baseline, each plain and/or with reserveCompensation) and each product
 (Nordic FCR-D up and down, dynamic: the fast ramp test and the sine tests; FCR-N; FFR at
@@ -22,6 +23,12 @@ smallest capacity tried), each naming the limiting requirement; then <out>/summa
 (products × hubs) and prints the summary. Several values of --dispatch, --baseline, --products
 are comma-separated. Jobs (hub × product) run in parallel processes (--jobs, default one per
 core).
+
+The power assessed is what the grid sees (hubAcPower): with the FMU's default zero supply losses
+and auxiliaries the stack power. `--parameter NAME=VALUE` sets any other parameter of the FMU
+on every hub (repeatable), for instance the grid side (auxiliaryPower, supplyNoLoadLoss,
+supplyLossVoltage, supplyLossResistance, gridSideReference = true: the baseline and the
+requests are then grid power) or the stack temperature (thermalModel = true).
 
 This is a model-based assessment of the test programme (Nordic FCR technical requirements
 v1.1 of 28 March 2025 and test programme, Fingrid FFR, SO GL Annex V), not a prequalification
@@ -281,14 +288,61 @@ def parser():
         default=os.cpu_count() or 1,
         help="parallel worker processes [default: one per core]",
     )
+    p.add_argument(
+        "--parameter",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="another parameter of the FMU for every hub, by its model-description name (repeatable)",
+    )
     cli.add_out_option(p, Path("out") / "prequalification", "the reports, plots and summary")
     p.add_argument("--no-plots", action="store_true", help="no PNG plots")
     return p
 
 
+#: Parameters the prequalification sets itself (per hub and per test).
+OWN_PARAMETERS = {"nModules", "dispatch", "belowMinimum", "powerInput", "reserveCompensation"}
+
+
+def fmu_settings(p, args):
+    """--parameter NAME=VALUE pairs, checked against the FMU's model description: a parameter
+    the prequalification does not set itself, and a value of its type."""
+    from fmpy import read_model_description
+
+    variables = {v.name: v for v in read_model_description(str(args.fmu)).modelVariables}
+    settable = sorted(
+        n
+        for n, v in variables.items()
+        if v.causality == "parameter" and n not in OWN_PARAMETERS and not n.endswith("Capacity") and v.type != "String"
+    )
+    settings = []
+    for item in args.parameter:
+        name, sep, text = item.partition("=")
+        name, text = name.strip(), text.strip()
+        if not sep or not name or not text:
+            p.error(f"--parameter {item!r}: give NAME=VALUE")
+        if name not in settable:
+            near = cli.did_you_mean(name, settable)
+            p.error(f"--parameter {name}: not a parameter this command lets you set{near}")
+        kind = variables[name].type
+        try:
+            if kind == "Real":
+                value = float(text)
+            elif kind in ("Integer", "Enumeration"):
+                value = int(text)
+            elif text.lower() in ("true", "false"):
+                value = text.lower()
+            else:
+                raise ValueError(text)
+        except ValueError:
+            p.error(f"--parameter {name}={text}: not a {'Boolean (true or false)' if kind == 'Boolean' else kind}")
+        settings.append((name, value))
+    return tuple(settings)
+
+
 def check_baselines(p, args):
     """A baseline the hub cannot hold (below every module at minSetpoint) is a usage error."""
-    runner = HubRunner(args.fmu, Hub(args.modules))
+    runner = HubRunner(args.fmu, Hub(args.modules, settings=args.settings))
     try:
         least = 100.0 * runner.least_power / runner.rated_power
     finally:
@@ -346,11 +400,17 @@ def main(argv=None):
     p = parser()
     args = p.parse_args(argv)
     args.fmu = cli.resolve_fmu(p, args)
+    args.settings = fmu_settings(p, args)
     check_baselines(p, args)
     cli.writable_folder(args.out)
     products = [BY_NAME[n] for n in args.products]
     modes = {"off": [False], "on": [True], "both": [False, True]}[args.compensation]
-    hubs = [Hub(args.modules, DISPATCH[d], 0, base, c) for d in args.dispatch for base in args.baseline for c in modes]
+    hubs = [
+        Hub(args.modules, DISPATCH[d], 0, base, c, args.settings)
+        for d in args.dispatch
+        for base in args.baseline
+        for c in modes
+    ]
     start = time.perf_counter()
     done = run_jobs(args, [(hub, p_.name) for hub in hubs for p_ in products])
     elapsed = time.perf_counter() - start

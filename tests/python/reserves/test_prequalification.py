@@ -233,6 +233,69 @@ def test_an_empty_window_is_not_tested(fmu_path, tmp_path):
     assert not list(tmp_path.glob("*.png"))
 
 
+#: The model page's worked example of the grid side (auxiliaries and supply losses).
+GRID_SIDE = {
+    "auxiliaryPower": 150.0,
+    "supplyNoLoadLoss": 30.0,
+    "supplyLossVoltage": 0.6,
+    "supplyLossResistance": 0.015,
+}
+
+
+def grid_power(setpoint):
+    """One running module's grid power [W] at `setpoint` [%]: stack + supply loss + auxiliaries."""
+    i = K * setpoint
+    g = GRID_SIDE
+    loss = g["supplyNoLoadLoss"] + g["supplyLossVoltage"] * i + g["supplyLossResistance"] * i * i
+    return module_power(setpoint) + loss + g["auxiliaryPower"]
+
+
+def test_on_the_grid_side_the_window_is_the_grid_powers(fmu_path, tmp_path):
+    """With the grid side and gridSideReference, the baseline and the requests are grid power:
+    mFRR up is limited by the window alone, baseline - every module at 60 %, both written out
+    in grid power; the report names the settings."""
+    settings = [f"{k}={v}" for k, v in GRID_SIDE.items()] + ["gridSideReference=true"]
+    done = prequalify(
+        "--fmu",
+        fmu_path,
+        "--modules",
+        N,
+        "--compensation",
+        "off",
+        "--products",
+        "mFRR up",
+        *[a for s in settings for a in ("--parameter", s)],
+        "--out",
+        tmp_path,
+        "--jobs",
+        1,
+        "--no-plots",
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    (row,) = csv.DictReader(open(tmp_path / "summary.csv", newline=""))
+    bound = N * (0.8 * grid_power(100.0) - grid_power(60.0))
+    assert float(row["capacity [W]"]) == pytest.approx(bound, abs=1.0)
+    assert row["limiting requirement"] == "operating window"
+    text = (tmp_path / "equal_80pct_plain.md").read_text()
+    assert "auxiliaryPower = 150.0" in text and "gridSideReference = true" in text
+
+
+def test_the_runner_measures_what_the_grid_sees(fmu_path):
+    """The trace is hubAcPower: at a steady baseline on the grid side the hub draws the baseline
+    from the grid, its stacks less by the losses and auxiliaries."""
+    from aem_electrolyser.hub.runner import Hub, HubRunner
+
+    settings = tuple(GRID_SIDE.items()) + (("gridSideReference", "true"),)
+    runner = HubRunner(fmu_path, Hub(N, baseline=0.7, settings=settings))
+    try:
+        assert runner.rated_power == pytest.approx(N * grid_power(100.0), rel=1e-12)
+        power, _ = runner.run(np.arange(0.0, 10.0, 1.0), frequency=np.full(10, 50.0))
+    finally:
+        runner.close()
+    np.testing.assert_allclose(power, 0.7 * N * grid_power(100.0), rtol=1e-12)
+
+
 # --- the command line ----------------------------------------------------------------------------
 
 
@@ -249,6 +312,11 @@ def test_an_empty_window_is_not_tested(fmu_path, tmp_path):
         (["--compensation", "bth"], "--compensation", ["did you mean 'both'"]),
         (["--dt", "-0.1"], "--dt", ["positive"]),
         (["--jobs", "0"], "--jobs", ["positive"]),
+        (["--parameter", "auxilaryPower=150"], "--parameter", ["did you mean 'auxiliaryPower'"]),
+        (["--parameter", "nModules=3"], "--parameter", ["nModules", "not a parameter this command lets you set"]),
+        (["--parameter", "auxiliaryPower"], "--parameter", ["NAME=VALUE"]),
+        (["--parameter", "thermalModel=yes"], "--parameter", ["Boolean"]),
+        (["--parameter", "auxiliaryPower=lots"], "--parameter", ["Real"]),
     ],
 )
 def test_a_bad_argument_is_one_line_before_any_work(args, option, words, fmu_path, tmp_path):
