@@ -2,6 +2,9 @@
 
 use std::fmt;
 
+/// Numeric channels besides time ([`Channel::MEASURED`]).
+pub const MEASURED_CHANNELS: usize = 7;
+
 /// One measured channel of an operational log, with its unit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Channel {
@@ -19,13 +22,15 @@ pub enum Channel {
     Pressure,
     /// Hydrogen flow [Nl/h].
     H2Flow,
+    /// Ambient (air) temperature around the stack [°C].
+    Ambient,
     /// Module identifier (text), when one file holds several modules.
     Module,
 }
 
 impl Channel {
     /// Every channel, in the order of the input format.
-    pub const ALL: [Channel; 8] = [
+    pub const ALL: [Channel; 9] = [
         Channel::Time,
         Channel::Setpoint,
         Channel::Current,
@@ -33,17 +38,19 @@ impl Channel {
         Channel::Temperature,
         Channel::Pressure,
         Channel::H2Flow,
+        Channel::Ambient,
         Channel::Module,
     ];
 
     /// The numeric channels besides time, in storage order (see [`Channel::index`]).
-    pub const MEASURED: [Channel; 6] = [
+    pub const MEASURED: [Channel; MEASURED_CHANNELS] = [
         Channel::Setpoint,
         Channel::Current,
         Channel::Voltage,
         Channel::Temperature,
         Channel::Pressure,
         Channel::H2Flow,
+        Channel::Ambient,
     ];
 
     /// Default column name, also the key of `--column KEY=NAME`.
@@ -56,6 +63,7 @@ impl Channel {
             Channel::Temperature => "temperature",
             Channel::Pressure => "pressure",
             Channel::H2Flow => "h2_flow",
+            Channel::Ambient => "ambient_temperature",
             Channel::Module => "module",
         }
     }
@@ -70,6 +78,7 @@ impl Channel {
             Channel::Temperature => "°C",
             Channel::Pressure => "bar",
             Channel::H2Flow => "Nl/h",
+            Channel::Ambient => "°C",
             Channel::Module => "text",
         }
     }
@@ -83,6 +92,7 @@ impl Channel {
             Channel::Temperature => Some(3),
             Channel::Pressure => Some(4),
             Channel::H2Flow => Some(5),
+            Channel::Ambient => Some(6),
             Channel::Time | Channel::Module => None,
         }
     }
@@ -102,7 +112,7 @@ impl fmt::Display for Channel {
 /// Column name of each channel in the user's files.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct ColumnMap {
-    names: [String; 8],
+    names: [String; 9],
 }
 
 impl Default for ColumnMap {
@@ -150,7 +160,7 @@ impl ColumnMap {
     }
 
     /// Index of each channel's column in `header` (exact match first, then ignoring case).
-    pub fn locate(&self, header: &[&str]) -> [Option<usize>; 8] {
+    pub fn locate(&self, header: &[&str]) -> [Option<usize>; 9] {
         Channel::ALL.map(|c| {
             let want = self.name(c);
             header.iter().position(|h| h.trim() == want).or_else(|| {

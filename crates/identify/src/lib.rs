@@ -15,7 +15,9 @@
 //! 5. [`structure`]: first- and third-order candidates beside the second order (RMSE, AICc);
 //! 6. [`hydrogen`]: flow = c·I and the Faraday efficiency for the cell count;
 //! 7. [`temperature`]: the curve's temperature coefficients kV, kR from the temperature
-//!    variation around the nominal temperature (for the FMU's thermal model).
+//!    variation around the nominal temperature (for the FMU's thermal model);
+//! 8. [`heat`]: the stack's heat capacity and thermal resistance from its warm-ups and
+//!    cool-downs below the setpoint (with an ambient-temperature column).
 //!
 //! [`parameter_file`] gathers the fits under the FMU's parameter names and units with the
 //! statistics, [`report`] writes the Table-I-like text, [`validate`] compares a held-out day with the identified model, and
@@ -29,6 +31,7 @@ pub mod columns;
 pub mod dialect;
 pub mod dynamics;
 pub mod error;
+pub mod heat;
 pub mod hydrogen;
 pub mod lsq;
 pub mod modal;
@@ -51,6 +54,7 @@ use aem_model::{ModuleParameter, Parameters};
 pub use error::{Error, Result};
 
 use dynamics::{DynamicsFit, DynamicsOptions, Estimate};
+use heat::{HeatFit, HeatOptions};
 use hydrogen::HydrogenFit;
 use polarisation::{PolarisationFit, PolarisationOptions};
 use read::{BadRowCounts, ModuleLog};
@@ -69,6 +73,8 @@ pub struct FitOptions {
     pub dynamics: DynamicsOptions,
     /// Temperature dependence of the curve.
     pub temperature: TemperatureOptions,
+    /// Heat balance.
+    pub heat: HeatOptions,
     /// Cells in the stack, for the Faraday efficiency.
     pub cells: u32,
     /// A parameter whose relative standard error exceeds this is flagged [-].
@@ -85,6 +91,7 @@ impl Default for FitOptions {
             polarisation: PolarisationOptions::default(),
             dynamics: DynamicsOptions::default(),
             temperature: TemperatureOptions::default(),
+            heat: HeatOptions::default(),
             cells: 23,
             poorly_determined: 0.05,
             base: Parameters::default(),
@@ -176,6 +183,8 @@ pub struct ModuleFit {
     /// The curve's temperature coefficients (for the thermal model; not part of the
     /// parameter file's module sets).
     pub temperature: Stage<TemperatureFit>,
+    /// The stack's heat capacity and thermal resistance (for the thermal model, likewise).
+    pub heat: Stage<HeatFit>,
     /// The resulting parameter set (identified values over the base set).
     pub parameters: Parameters,
     /// Which parameters were identified, with their estimates.
@@ -252,6 +261,9 @@ pub fn fit_module(log: &ModuleLog, options: &FitOptions) -> ModuleFit {
         temperature::fit_temperature_dependence(log, &options.temperature).into();
     lap("temperature dependence", &mut timings);
 
+    let heat: Stage<HeatFit> = heat::fit_heat_balance(log, &options.heat).into();
+    lap("heat balance", &mut timings);
+
     let mut parameters = base;
     let mut estimates = BTreeMap::new();
     if let Stage::Done(p) = &polarisation {
@@ -293,6 +305,7 @@ pub fn fit_module(log: &ModuleLog, options: &FitOptions) -> ModuleFit {
         structure,
         hydrogen,
         temperature,
+        heat,
         parameters,
         estimates,
         timings,

@@ -505,6 +505,9 @@ fn fit(args: FitArgs) -> Result<(), Error> {
     options.temperature.window = args.temperature_window;
     options.temperature.running_current = args.input.running_current;
     options.temperature.pressure = (args.nominal_pressure, args.pressure_tolerance);
+    options.heat.setpoint = args.nominal_temperature;
+    options.heat.cells = args.cells;
+    options.heat.running_current = args.input.running_current;
     options.dynamics.outlier_sigmas = args.outlier_sigmas;
     options.dynamics.trajectory = args.trajectory;
     options.dynamics.settle = args.input.settle;

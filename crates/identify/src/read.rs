@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
-use super::columns::{Channel, ColumnMap};
+use super::columns::{Channel, ColumnMap, MEASURED_CHANNELS};
 use super::dialect::SAMPLE_LINES;
 pub use super::dialect::{DecimalMark, Dialect, DialectChoice};
 use super::error::{Error, Result};
@@ -135,7 +135,7 @@ pub struct Block {
     /// Time [s] (seconds since the Unix epoch for RFC 3339 timestamps), strictly increasing.
     pub time: Vec<f64>,
     /// Values of [`Channel::MEASURED`] in that order; `None` where the file has no such column.
-    pub channels: [Option<Vec<f64>>; 6],
+    pub channels: [Option<Vec<f64>>; MEASURED_CHANNELS],
 }
 
 impl Block {
@@ -388,7 +388,8 @@ pub fn read_csv_with_dialect(
         .enumerate()
         .filter_map(|(slot, c)| index[*c as usize].map(|col| (slot, col)))
         .collect();
-    let present: [bool; 6] = std::array::from_fn(|slot| measured.iter().any(|&(s, _)| s == slot));
+    let present: [bool; MEASURED_CHANNELS] =
+        std::array::from_fn(|slot| measured.iter().any(|&(s, _)| s == slot));
     let needed = measured
         .iter()
         .map(|&(_, c)| c)
@@ -400,7 +401,7 @@ pub fn read_csv_with_dialect(
 
     let mut builders: HashMap<String, Builder> = HashMap::new();
     let mut rows_read = 0u64;
-    let mut values = [0.0f64; 6];
+    let mut values = [0.0f64; MEASURED_CHANNELS];
     loop {
         match reader.read_byte_record(&mut record) {
             Ok(true) => {}
@@ -465,7 +466,7 @@ fn builder<'a>(
     builders: &'a mut HashMap<String, Builder>,
     id: &str,
     path: &Path,
-    present: &[bool; 6],
+    present: &[bool; MEASURED_CHANNELS],
 ) -> &'a mut Builder {
     builders
         .entry(id.to_string())
@@ -474,7 +475,7 @@ fn builder<'a>(
 
 /// Accumulates one module's rows of one file.
 struct Builder {
-    present: [bool; 6],
+    present: [bool; MEASURED_CHANNELS],
     current: Block,
     blocks: Vec<Block>,
     bad: BadRowCounts,
@@ -482,7 +483,7 @@ struct Builder {
 }
 
 impl Builder {
-    fn new(path: &Path, present: &[bool; 6]) -> Builder {
+    fn new(path: &Path, present: &[bool; MEASURED_CHANNELS]) -> Builder {
         Builder {
             present: *present,
             current: empty_block(path, 0, present),
@@ -492,7 +493,14 @@ impl Builder {
         }
     }
 
-    fn push(&mut self, t: f64, values: &[f64; 6], path: &Path, line: u64, max_gap: f64) {
+    fn push(
+        &mut self,
+        t: f64,
+        values: &[f64; MEASURED_CHANNELS],
+        path: &Path,
+        line: u64,
+        max_gap: f64,
+    ) {
         if let Some(&last) = self.current.time.last() {
             if t == last {
                 self.bad.add(BadRow::DuplicateTime, path, line);
@@ -543,7 +551,7 @@ impl Builder {
     }
 }
 
-fn empty_block(path: &Path, line: u64, present: &[bool; 6]) -> Block {
+fn empty_block(path: &Path, line: u64, present: &[bool; MEASURED_CHANNELS]) -> Block {
     Block {
         source: path.to_path_buf(),
         first_line: line,

@@ -312,6 +312,32 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
         }
         Stage::Skipped(why) => row("Temperature", "not identified", why.clone(), String::new()),
     }
+    match &fit.heat {
+        Stage::Done(h) => {
+            row(
+                "Heat balance",
+                "C",
+                format!("{} J/K", sig(h.heat_capacity.value, 4)),
+                interval(&h.heat_capacity, "J/K"),
+            );
+            row(
+                "",
+                "Rth",
+                format!("{} K/W", sig(h.thermal_resistance.value, 4)),
+                interval(&h.thermal_resistance, "K/W"),
+            );
+            row(
+                "",
+                "RMSE of ΔT",
+                format!("{} K", sig(h.rmse, 3)),
+                format!(
+                    "{} windows below the setpoint, {} with heat",
+                    h.windows, h.heated
+                ),
+            );
+        }
+        Stage::Skipped(why) => row("Heat balance", "not identified", why.clone(), String::new()),
+    }
     let _ = writeln!(out);
     if let Stage::Done(d) = &fit.dynamics {
         let groups: Vec<String> = d
@@ -494,6 +520,11 @@ pub fn statistics_json(fit: &ModuleFit) -> Value {
             "rmseV": num(t.rmse), "points": t.points,
             "temperatureRangeDegC": [t.temperature_range.0, t.temperature_range.1],
             "temperatureSpreadK": num(t.temperature_spread), "notes": t.notes,
+        })),
+        "heat": stage_json(&fit.heat, |h| json!({
+            "heatCapacity": estimate_json(&h.heat_capacity, "J/K"),
+            "thermalResistance": estimate_json(&h.thermal_resistance, "K/W"),
+            "rmseK": num(h.rmse), "windows": h.windows, "windowsWithHeat": h.heated,
         })),
         "hydrogen": stage_json(&fit.hydrogen, |h| json!({
             "rmseNlPerH": num(h.rmse), "points": h.points, "cells": h.cells, "faradayEfficiency": num(h.faraday_efficiency),

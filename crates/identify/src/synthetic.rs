@@ -87,6 +87,40 @@ pub struct CampaignSpec {
     pub dips_per_day: usize,
     /// Probability that a step is disturbed (an outlier).
     pub disturbed_fraction: f64,
+    /// The stack temperature from a heat balance instead of the scripted warm-up and dips,
+    /// with an ambient-temperature column (None: the scripted temperature, no such column).
+    pub thermal: Option<SyntheticThermal>,
+}
+
+/// A stack whose temperature follows C·dT/dt = (V − n·1.481 V)·I − (T − Ta)/Rth − Qc, a
+/// thermostat holding 55 °C with cooling to spare; the ambient swings daily.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SyntheticThermal {
+    /// C [J/K].
+    pub heat_capacity: f64,
+    /// Rth [K/W].
+    pub thermal_resistance: f64,
+    /// Cells n [1].
+    pub cells: u32,
+    /// Mean ambient temperature [°C] and its daily swing (amplitude) [K].
+    pub ambient: f64,
+    pub ambient_swing: f64,
+    /// Ambient sensor noise [°C].
+    pub ambient_noise: f64,
+}
+
+impl Default for SyntheticThermal {
+    /// The FMU's assumed stack (C = 25 kJ/K, Rth = 0.2 K/W, 23 cells) in 5 °C ± 3 K air.
+    fn default() -> Self {
+        SyntheticThermal {
+            heat_capacity: 25_000.0,
+            thermal_resistance: 0.2,
+            cells: 23,
+            ambient: 5.0,
+            ambient_swing: 3.0,
+            ambient_noise: 0.05,
+        }
+    }
 }
 
 impl CampaignSpec {
@@ -128,6 +162,7 @@ impl Default for CampaignSpec {
             pressure_coefficient: 0.05,
             dips_per_day: 4,
             disturbed_fraction: 0.01,
+            thermal: None,
         }
     }
 }
@@ -149,6 +184,8 @@ pub struct Day {
     pub pressure: Vec<f64>,
     /// Hydrogen flow [Nl/h].
     pub h2_flow: Vec<f64>,
+    /// Ambient temperature [°C] (empty without [`CampaignSpec::thermal`]).
+    pub ambient: Vec<f64>,
     /// Setpoint steps made while running (start-ups and shut-downs excluded).
     pub steps: usize,
     /// Steps that were disturbed.
@@ -220,6 +257,11 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
     let mut disturbance: Option<(usize, f64)> = None;
     let mut previous_setpoint = 0.0;
     let mut row = 0usize;
+    let ambient_at = |t: f64, th: &SyntheticThermal| {
+        th.ambient + th.ambient_swing * (2.0 * std::f64::consts::PI * t / 86_400.0).sin()
+    };
+    // The stack starts the day at the ambient temperature.
+    let mut stack = spec.thermal.map(|th| ambient_at(t0, &th));
     for (n, u) in schedule {
         for _ in 0..n {
             let t = t0 + row as f64;
@@ -265,14 +307,17 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
                 -depth * (-age / 60.0).exp() * f64::from(u8::from(age < 400.0))
             });
             let since_start = (row - run_start) as f64;
-            // Temperature: warm-up from 45 °C over ~7 min when running, dips, cooling when off.
-            let mut temperature = if running {
+            // Temperature: warm-up from 45 °C over ~7 min when running, dips, cooling when off;
+            // or the heat balance's.
+            let mut temperature = if let Some(t) = stack {
+                t
+            } else if running {
                 55.0 - 10.0 * (-since_start / 400.0).exp()
             } else {
                 45.0
             };
             for &(start, depth) in &dips {
-                if row >= start && running {
+                if row >= start && running && stack.is_none() {
                     let age = (row - start) as f64;
                     let shape = if age < 60.0 {
                         age / 60.0
@@ -297,6 +342,21 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
             } else {
                 0.0
             };
+            if let (Some(t_stack), Some(th)) = (stack.as_mut(), spec.thermal.as_ref()) {
+                // One second of C·dT/dt = heat − (T − Ta)/Rth at this row's heat, exactly; the
+                // thermostat holds 55 °C against any surplus.
+                let ta = ambient_at(t, th);
+                let heat = if running && i_true > 0.0 {
+                    (voltage - f64::from(th.cells) * 1.481) * i_true
+                } else {
+                    0.0
+                };
+                let settles = ta + th.thermal_resistance * heat;
+                let decay = (-1.0 / (th.thermal_resistance * th.heat_capacity)).exp();
+                let next = settles + (*t_stack - settles) * decay;
+                *t_stack = if next > 55.0 { 55.0 } else { next };
+                day.ambient.push(ta + th.ambient_noise * rng.normal());
+            }
             day.time.push(t);
             day.setpoint.push(u);
             day.current.push(i_true + spec.current_noise * rng.normal());
@@ -393,6 +453,11 @@ pub fn to_csv(day: &Day, options: &CsvOptions) -> (String, Injected) {
         .filter(|(_, k)| **k)
         .map(|(n, _)| n.as_str())
         .collect();
+    let ambient =
+        !day.ambient.is_empty() && !options.omit.iter().any(|o| o == "ambient_temperature");
+    if ambient {
+        header.push("ambient_temperature");
+    }
     if let Some((name, _)) = &options.module {
         header.push(name);
     }
@@ -505,6 +570,9 @@ fn format_row(day: &Day, r: usize, options: &CsvOptions, keep: &[bool], fields: 
         if *k {
             fields.push(f);
         }
+    }
+    if !day.ambient.is_empty() && !options.omit.iter().any(|o| o == "ambient_temperature") {
+        fields.push(format!("{:.4}", day.ambient[r]));
     }
     if let Some((_, value)) = &options.module {
         fields.push(value.clone());
