@@ -173,6 +173,10 @@ struct SynthesizeArgs {
     /// Write only the first N days' files but draw days from index SKIP on (for a held-out day).
     #[arg(long, default_value_t = 0)]
     skip: usize,
+    /// The stack temperature from a heat balance (C = 25 kJ/K, Rth = 0.2 K/W, 5 °C ± 3 K air)
+    /// with an ambient_temperature column, instead of the scripted warm-up and dips.
+    #[arg(long)]
+    thermal: bool,
 }
 
 /// glibc hands freed blocks above 128 kB straight back to the kernel. The fits allocate and
@@ -668,6 +672,7 @@ fn synthesize(args: SynthesizeArgs) -> Result<(), Error> {
     let spec = CampaignSpec {
         seed: args.seed,
         running_hours: args.hours,
+        thermal: args.thermal.then(synthetic::SyntheticThermal::default),
         ..CampaignSpec::default()
     };
     let days: Vec<synthetic::Day> = (args.skip..args.skip + args.days)
@@ -686,6 +691,12 @@ fn synthesize(args: SynthesizeArgs) -> Result<(), Error> {
     })?;
     let rows: u64 = written.iter().map(|(_, i)| i.rows).sum();
     let p = spec.truth;
+    if let Some(t) = &spec.thermal {
+        say(&format!(
+            "stack temperature from the heat balance: heatCapacity {} J/K, thermalResistance {} K/W, {} cells, air {} °C ± {} K\n",
+            t.heat_capacity, t.thermal_resistance, t.cells, t.ambient, t.ambient_swing
+        ))?;
+    }
     say(&format!(
         "wrote {} files, {rows} rows to {}; truth: gain {} A/%, tauZero {} s, tauPole1 {} s, tauPole2 {} s, rampUpLimit {} A/s, voltageIntercept {} V, ohmicResistance {} Ohm, h2Coefficient {} Nl/(h.A)\n",
         written.len(),
