@@ -95,7 +95,7 @@ CASE(setpoint_inf) { UNUSED; return set_real(c, "setpoint", INFINITY); }
 CASE(setpoint_minus_inf) { UNUSED; return set_real(c, "setpoint", -INFINITY); }
 CASE(setpoint_clamped) { UNUSED; return set_real(c, "setpoint", 30.0); }
 CASE(parameter_nan) { UNUSED; return set_real(c, "gain", NAN); }
-CASE(set_unknown_vr) { UNUSED; const fmi2ValueReference r = 19; const double x = 1.0; return fmu->SetReal(c, &r, 1, &x); }
+CASE(set_unknown_vr) { UNUSED; const fmi2ValueReference r = 99; const double x = 1.0; return fmu->SetReal(c, &r, 1, &x); }
 CASE(get_unknown_vr) { UNUSED; const fmi2ValueReference r = 4294967295u; double x; return fmu->GetReal(c, &r, 1, &x); }
 CASE(set_output) { UNUSED; return set_real(c, "current", 1.0); }
 CASE(set_fixed_late) { UNUSED; return set_real(c, "gain", 0.6); }

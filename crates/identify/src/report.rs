@@ -516,7 +516,7 @@ pub fn statistics_json(fit: &ModuleFit) -> Value {
             "voltageTemperatureCoefficient": estimate_json(&t.voltage_coefficient, "V/K"),
             "resistanceTemperatureCoefficient": t.resistance_coefficient.as_ref().map_or(Value::Null, |e| estimate_json(e, "Ohm/K")),
             "voltageIntercept": estimate_json(&t.voltage_intercept, "V"),
-            "ohmicResistance": estimate_json(&t.ohmic_resistance, "Ohm"),
+            "ohmicResistance": t.ohmic_resistance.as_ref().map_or(Value::Null, |e| estimate_json(e, "Ohm")),
             "rmseV": num(t.rmse), "points": t.points,
             "temperatureRangeDegC": [t.temperature_range.0, t.temperature_range.1],
             "temperatureSpreadK": num(t.temperature_spread), "notes": t.notes,

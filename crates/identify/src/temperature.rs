@@ -54,9 +54,10 @@ pub struct TemperatureFit {
     /// kR [Ω/K]; None where the current did not vary enough with the temperature (the reason
     /// in `notes`).
     pub resistance_coefficient: Option<Estimate>,
-    /// V0 and R at Tn from the same fit [V], [Ω].
+    /// V0 at Tn from the same fit [V] (with a current that does not vary: V0 + R·I at it).
     pub voltage_intercept: Estimate,
-    pub ohmic_resistance: Estimate,
+    /// R at Tn [Ω]; None where the current does not vary.
+    pub ohmic_resistance: Option<Estimate>,
     /// RMSE of V [V].
     pub rmse: f64,
     /// Samples used.
@@ -127,16 +128,32 @@ pub fn fit_temperature_dependence(
         ));
     }
     let mut notes = Vec::new();
-    let full = least_squares(&rows, true);
-    let fit = match full {
+    let mean_i = rows.iter().map(|r| r[1]).sum::<f64>() / n as f64;
+    let current_varies = rows
+        .iter()
+        .any(|r| (r[1] - mean_i).abs() > 1e-9 * mean_i.abs().max(1.0));
+    let columns = if !current_varies {
+        notes.push(
+            "R and kR not identifiable from this log: the current does not vary; kV fitted at that current".to_string(),
+        );
+        2
+    } else {
+        4
+    };
+    let fit = match least_squares(&rows, columns) {
         Ok(fit) => fit,
-        Err(condition) => {
+        Err(condition) if columns == 4 => {
             notes.push(format!(
                 "kR not identifiable from this log: the current hardly varies while the temperature does (condition number {condition:.3e}); kV fitted with R constant"
             ));
-            least_squares(&rows, false).map_err(|condition| {
+            least_squares(&rows, 3).map_err(|condition| {
                 format!("not identifiable from this log: temperature and current vary together (condition number {condition:.3e})")
             })?
+        }
+        Err(condition) => {
+            return Err(format!(
+                "not identifiable from this log: the design is singular (condition number {condition:.3e})"
+            ))
         }
     };
     let estimate = |k: usize| Estimate {
@@ -146,7 +163,7 @@ pub fn fit_temperature_dependence(
     Ok(TemperatureFit {
         voltage_intercept: estimate(0),
         voltage_coefficient: estimate(1),
-        ohmic_resistance: estimate(2),
+        ohmic_resistance: (fit.theta.len() >= 3).then(|| estimate(2)),
         resistance_coefficient: (fit.theta.len() == 4).then(|| estimate(3)),
         rmse: (fit.rss / n as f64).sqrt(),
         points: n,
@@ -162,12 +179,11 @@ struct Solution {
     rss: f64,
 }
 
-/// Least squares on the columns [1, ΔT, I, ΔT·I] (without the last unless `with_kr`), each
-/// non-constant column standardised for the solve; Err(condition number) when the design is
-/// too ill-conditioned to separate the coefficients.
-fn least_squares(rows: &[[f64; 3]], with_kr: bool) -> Result<Solution, f64> {
+/// Least squares on the first `k` of the columns [1, ΔT, I, ΔT·I], each but the first
+/// standardised for the solve; Err(condition number) when the design is too ill-conditioned to
+/// separate the coefficients.
+fn least_squares(rows: &[[f64; 3]], k: usize) -> Result<Solution, f64> {
     let n = rows.len();
-    let k = if with_kr { 4 } else { 3 };
     let column = |r: &[f64; 3], j: usize| match j {
         0 => 1.0,
         1 => r[0],

@@ -154,16 +154,33 @@ fn kilograms_per_normal_litre(import: &Fmi2Import) -> Result<f64> {
         .ok_or_else(|| "the model description has no display unit kg of Nl".to_string())
 }
 
-/// Steady electric power [W] of one module at maxSetpoint: a probe instance of one module
-/// with the scenario's module parameters, held at maxSetpoint long enough to settle.
+/// The grid side's parameters: with gridSideReference the power reference means grid power.
+const GRID_PARAMETERS: [&str; 5] = [
+    "auxiliaryPower",
+    "supplyNoLoadLoss",
+    "supplyLossVoltage",
+    "supplyLossResistance",
+    "gridSideReference",
+];
+
+/// Whether the scenario's power reference means grid power (gridSideReference = true).
+pub fn grid_side(parameters: &[(String, String)]) -> bool {
+    parameters
+        .iter()
+        .any(|(n, v)| n == "gridSideReference" && matches!(v.trim(), "true" | "1"))
+}
+
+/// Steady power [W] of one module at maxSetpoint on the side the reference means (the stack's
+/// `power`, or with gridSideReference the grid's `acPower`): a probe instance of one module
+/// with the scenario's module and grid-side parameters, held at maxSetpoint long enough to
+/// settle.
 pub fn module_rated_power(import: &Fmi2Import, parameters: &[(String, String)]) -> Result<f64> {
     let mut probe = import
         .instantiate_cs("aem-run probe", false, false)
         .map_err(|e| format!("fmi2Instantiate: {e}"))?;
-    for (name, value) in parameters
-        .iter()
-        .filter(|(n, _)| MODULE_PARAMETERS.contains(&n.as_str()))
-    {
+    for (name, value) in parameters.iter().filter(|(n, _)| {
+        MODULE_PARAMETERS.contains(&n.as_str()) || GRID_PARAMETERS.contains(&n.as_str())
+    }) {
         set_by_name(import, &mut probe, name, value)?;
     }
     check("setupExperiment", probe.setup_experiment(None, 0.0, None))?;
@@ -184,9 +201,14 @@ pub fn module_rated_power(import: &Fmi2Import, parameters: &[(String, String)]) 
     // The slowest time constant is minutes at most, the start-up a few: a day settles it.
     check("doStep", probe.do_step(0.0, 86_400.0, true))?;
     let mut power = [0.0];
+    let side = if grid_side(parameters) {
+        "acPower"
+    } else {
+        "power"
+    };
     check(
         "getReal power",
-        probe.get_real(&[value_reference(import, "power")?], &mut power),
+        probe.get_real(&[value_reference(import, side)?], &mut power),
     )?;
     if !(power[0] > 0.0) {
         return Err(format!(
@@ -255,7 +277,16 @@ pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>
         },
     )?];
     // What the hub draws from the grid, step by step (hubEnergy without losses or auxiliaries).
-    let energy_vr = [value_reference(&import, "hubAcEnergy")?];
+    // What the hub draws from the grid (hubAcEnergy), and on the side the reference means.
+    let followed = if grid_side(&scenario.parameters) {
+        "hubAcEnergy"
+    } else {
+        "hubEnergy"
+    };
+    let energy_vr = [
+        value_reference(&import, "hubAcEnergy")?,
+        value_reference(&import, followed)?,
+    ];
     let totals_vrs = TOTALS
         .iter()
         .map(|name| value_reference(&import, name))
@@ -281,7 +312,14 @@ pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>
 
     let mut sums = (scenario.input == Input::Power).then(Sums::default);
     let rated = f64::from(modules[0]) * module_power;
-    let mut energy = [at_start[4]];
+    let mut energy = [
+        at_start[4],
+        if grid_side(&scenario.parameters) {
+            at_start[4]
+        } else {
+            at_start[0]
+        },
+    ];
     for (k, &reference) in scenario.reference.iter().enumerate() {
         let t = scenario.start + k as f64 * h;
         check(
@@ -290,10 +328,16 @@ pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>
         )?;
         // The call's name is formatted only when it failed (a year is 31.5 million steps).
         check("doStep", fmu.do_step(t, h, true)).map_err(|e| format!("{e} at {t} s"))?;
-        let before = energy[0];
+        let before = energy;
         check("getReal hubAcEnergy", fmu.get_real(&energy_vr, &mut energy))?;
         if let Some(s) = sums.as_mut() {
-            s.add(reference, energy[0] - before, h, rated);
+            s.add(
+                reference,
+                energy[0] - before[0],
+                energy[1] - before[1],
+                h,
+                rated,
+            );
         }
     }
     let mut at_end = [0.0; TOTALS.len()];
@@ -309,6 +353,7 @@ pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>
         starts: since(2),
         running_hours: since(3),
         grid_energy: since(4),
+        grid_side: grid_side(&scenario.parameters),
         warm_starts: since(5),
     };
     Ok((totals, sums))

@@ -5,7 +5,9 @@
 //! supply's losses and the auxiliaries, equal to `hubEnergy` without them), so its step-mean
 //! power is p_k = ΔE_k / h.
 //! Wind not absorbed = Σ max(r_k h − ΔE_k, 0), grid import = Σ max(ΔE_k − r_k h, 0) (net per
-//! step); tracking error e_k = p_k − min(r_k, P_rated), RMS over the steps.
+//! step); tracking error e_k = p_k − min(r_k, P_rated), RMS over the steps, on the side the
+//! reference means (the stacks' `hubEnergy` unless gridSideReference, with P_rated on that
+//! side too).
 
 use serde_json::{Map, Value};
 
@@ -26,15 +28,16 @@ pub struct Sums {
 }
 
 impl Sums {
-    /// One step of `h` [s] with reference `reference` [W] in which the hub drew `drawn` [J];
-    /// `rated` [W] caps the reference for the tracking error.
-    pub fn add(&mut self, reference: f64, drawn: f64, h: f64, rated: f64) {
+    /// One step of `h` [s] with reference `reference` [W] in which the hub drew `drawn` [J]
+    /// from the grid and `followed` [J] on the side the reference means; `rated` [W] (that
+    /// side's) caps the reference for the tracking error.
+    pub fn add(&mut self, reference: f64, drawn: f64, followed: f64, h: f64, rated: f64) {
         let offered = reference * h;
         self.steps += 1;
         self.reference += offered;
         self.not_absorbed += (offered - drawn).max(0.0);
         self.imported += (drawn - offered).max(0.0);
-        let error = drawn / h - reference.min(rated);
+        let error = followed / h - reference.min(rated);
         self.squared_error += error * error;
     }
 }
@@ -50,6 +53,8 @@ pub struct Totals {
     pub energy: f64,
     /// hubAcEnergy [J]: what the grid delivered (with the supply's losses and auxiliaries).
     pub grid_energy: f64,
+    /// The reference and the rated power mean grid power (gridSideReference).
+    pub grid_side: bool,
     /// hubH2Produced [kg] (converted with the model description's display unit).
     pub hydrogen: f64,
     pub starts: f64,
@@ -97,7 +102,14 @@ pub fn row(totals: &Totals, sums: Option<&Sums>) -> Map<String, Value> {
     put("grid import [MWh]", wind(|s| s.imported / J_PER_MWH));
     put(
         "full-load hours [h]",
-        number(totals.energy / 3600.0 / rated),
+        number(
+            if totals.grid_side {
+                totals.grid_energy
+            } else {
+                totals.energy
+            } / 3600.0
+                / rated,
+        ),
     );
     put("starts per module [1]", number(totals.starts / modules));
     put(
@@ -132,17 +144,18 @@ mod tests {
     fn net_per_step_energies_and_rms() {
         let mut sums = Sums::default();
         // 10 MW offered for 2 s, 8 MW drawn: 4 MJ not absorbed, error -2 MW.
-        sums.add(10e6, 16e6, 2.0, 50e6);
+        sums.add(10e6, 16e6, 16e6, 2.0, 50e6);
         // 1 MW offered, 3 MW drawn: 4 MJ imported, error +2 MW.
-        sums.add(1e6, 6e6, 2.0, 50e6);
+        sums.add(1e6, 6e6, 6e6, 2.0, 50e6);
         // 80 MW offered to a 50 MW hub drawing 50 MW: 60 MJ not absorbed, error 0.
-        sums.add(80e6, 100e6, 2.0, 50e6);
+        sums.add(80e6, 100e6, 100e6, 2.0, 50e6);
         let totals = Totals {
             modules: 2,
             module_rated_power: 25e6,
             horizon: 6.0,
             energy: 122e6,
             grid_energy: 131e6,
+            grid_side: false,
             hydrogen: 2.0,
             starts: 4.0,
             warm_starts: 3.0,
@@ -179,6 +192,7 @@ mod tests {
             horizon: 3600.0,
             energy: 0.0,
             grid_energy: 0.0,
+            grid_side: false,
             hydrogen: 0.0,
             starts: 0.0,
             warm_starts: 0.0,

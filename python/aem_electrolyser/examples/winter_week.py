@@ -5,7 +5,7 @@ and warm starts, the power supplies' losses and the auxiliaries, against the pap
     python -m aem_electrolyser.examples.winter_week [--modules 40] [--days 7] [--seed 1] [--out out]
 
 A wind farm's power (aem_electrolyser.wind.year, seeded, 60 s) scaled to 120 % of the hub's
-rated power is the hub's power reference; sequential dispatch, the other modules in standby
+rated stack power is the hub's power reference; sequential dispatch, the other modules in standby
 for up to six hours, then off. The same wind drives three hubs, each an FMU in fmpy with 60 s
 steps:
 

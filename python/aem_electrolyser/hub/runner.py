@@ -2,10 +2,10 @@
 native FMI calls with preallocated arguments (three calls per step, a few µs).
 
 The hub draws `powerReference` (powerInput = true); the frequency f[k] (or a power reference
-p[k]) is set at t[k] and held over [t[k], t[k+1]]; the trace holds the power the grid sees
-(hubAcPower: hubPower with the supplies' losses and the auxiliaries, the same number when they
-are zero, the default) and reserveRequest at every t[k] (the state reached with the inputs of
-the previous interval). The FMU's log
+p[k]) is set at t[k] and held over [t[k], t[k+1]]; the trace holds the power on the side the
+reference means (hubPower; with gridSideReference what the grid sees, hubAcPower: hubPower with
+the supplies' losses and the auxiliaries) and reserveRequest at every t[k] (the state reached
+with the inputs of the previous interval). The FMU's log
 messages (the window's shortfalls, ramp-limited increases) are counted in `messages`, not
 printed.
 """
@@ -61,6 +61,8 @@ class HubRunner:
         losses = ("supplyNoLoadLoss", "supplyLossVoltage", "supplyLossResistance", "auxiliaryPower")
         start = {name: float(value.get(name, self.vars[name].start)) for name in names + losses}
         grid_side = str(value.get("gridSideReference", self.vars["gridSideReference"].start)).lower() == "true"
+        #: The output assessed: the power on the side the reference means.
+        self.measured = "hubAcPower" if grid_side else "hubPower"
 
         def module_power(u):
             """A running module's steady power at u [%] as the power reference means it (the
@@ -85,7 +87,8 @@ class HubRunner:
         shutil.rmtree(self.unzipdir, ignore_errors=True)
 
     def run(self, t, frequency=None, power_reference=None, parameters=None):
-        """hubAcPower and reserveRequest [W] at every t[k] for the inputs held from t[k]."""
+        """The power assessed (hubPower, or hubAcPower on the grid side) and reserveRequest [W]
+        at every t[k] for the inputs held from t[k]."""
         t = np.asarray(t, float)
         fmu = FMU2Slave(
             guid=self.md.guid,
@@ -140,7 +143,9 @@ class HubRunner:
         driven = "frequency" if frequency is not None else "powerReference"
         values = np.asarray(frequency if frequency is not None else power_reference, float)
         vr_in = (ctypes.c_uint * 1)(self.vars[driven].valueReference)
-        vr_out = (ctypes.c_uint * 2)(self.vars["hubAcPower"].valueReference, self.vars["reserveRequest"].valueReference)
+        vr_out = (ctypes.c_uint * 2)(
+            self.vars[self.measured].valueReference, self.vars["reserveRequest"].valueReference
+        )
         x_in, x_out = (ctypes.c_double * 1)(), (ctypes.c_double * 2)()
         # The library's own entry points (fmpy's wrappers add a Python call per FMI call); every
         # status is checked all the same.

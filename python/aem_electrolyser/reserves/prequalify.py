@@ -24,11 +24,11 @@ smallest capacity tried), each naming the limiting requirement; then <out>/summa
 are comma-separated. Jobs (hub × product) run in parallel processes (--jobs, default one per
 core).
 
-The power assessed is what the grid sees (hubAcPower): with the FMU's default zero supply losses
-and auxiliaries the stack power. `--parameter NAME=VALUE` sets any other parameter of the FMU
-on every hub (repeatable), for instance the grid side (auxiliaryPower, supplyNoLoadLoss,
-supplyLossVoltage, supplyLossResistance, gridSideReference = true: the baseline and the
-requests are then grid power) or the stack temperature (thermalModel = true).
+`--parameter NAME=VALUE` sets any other parameter of the FMU on every hub (repeatable), for
+instance the grid side (auxiliaryPower, supplyNoLoadLoss, supplyLossVoltage,
+supplyLossResistance, and gridSideReference = true: the baseline, the rated power and the
+requests are then grid power, and the power assessed is what the grid sees, hubAcPower; without
+it the stacks' hubPower) or the stack temperature (thermalModel = true).
 
 This is a model-based assessment of the test programme (Nordic FCR technical requirements
 v1.1 of 28 March 2025 and test programme, Fingrid FFR, SO GL Annex V), not a prequalification
@@ -301,7 +301,20 @@ def parser():
 
 
 #: Parameters the prequalification sets itself (per hub and per test).
-OWN_PARAMETERS = {"nModules", "dispatch", "belowMinimum", "powerInput", "reserveCompensation"}
+OWN_PARAMETERS = {
+    "nModules",
+    "dispatch",
+    "belowMinimum",
+    "powerInput",
+    "reserveCompensation",
+    "fcrNCapacity",
+    "fcrDUpCapacity",
+    "fcrDDownCapacity",
+    "fcrCapacity",
+    "ffrCapacity",
+    "ffrTriggerFrequency",
+    "ffrSupportDuration",
+}
 
 
 def fmu_settings(p, args):
@@ -311,9 +324,7 @@ def fmu_settings(p, args):
 
     variables = {v.name: v for v in read_model_description(str(args.fmu)).modelVariables}
     settable = sorted(
-        n
-        for n, v in variables.items()
-        if v.causality == "parameter" and n not in OWN_PARAMETERS and not n.endswith("Capacity") and v.type != "String"
+        n for n, v in variables.items() if v.causality == "parameter" and n not in OWN_PARAMETERS and v.type != "String"
     )
     settings = []
     for item in args.parameter:

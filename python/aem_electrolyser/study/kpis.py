@@ -6,7 +6,7 @@
 #: KPI column name -> one-line meaning (the units are in the names).
 KPIS = {
     "modules [1]": "number of modules in the hub",
-    "hub rated power [MW]": "modules x one module's steady power at maxSetpoint",
+    "hub rated power [MW]": "modules x one module's steady power at maxSetpoint (grid power with gridSideReference)",
     "horizon [h]": "simulated time",
     "reference energy [MWh]": "energy of the power reference (the wind offered), held over each step",
     "energy drawn [MWh]": "electric energy drawn by the hub (hubEnergy)",
@@ -17,7 +17,7 @@ KPIS = {
     "specific energy, grid side [kWh/kg]": "grid energy per kilogram of hydrogen",
     "wind not absorbed [MWh]": "sum over steps of max(reference - hub's grid draw, 0) energy",
     "grid import [MWh]": "sum over steps of max(hub's grid draw - reference, 0) energy",
-    "full-load hours [h]": "energy drawn / hub rated power",
+    "full-load hours [h]": "energy drawn (grid energy with gridSideReference) / hub rated power",
     "starts per module [1]": "start-ups summed over the modules / modules",
     "warm starts per module [1]": "of them, the warm ones (warmStartTime: from standby, or a stack at least warmStartTemperature)",
     "cold starts per module [1]": "of them, the cold ones (coldStartTime)",

@@ -254,7 +254,9 @@ def test_on_the_grid_side_the_window_is_the_grid_powers(fmu_path, tmp_path):
     """With the grid side and gridSideReference, the baseline and the requests are grid power:
     mFRR up is limited by the window alone, baseline - every module at 60 %, both written out
     in grid power; the report names the settings."""
-    settings = [f"{k}={v}" for k, v in GRID_SIDE.items()] + ["gridSideReference=true"]
+    # heatCapacity: a thermal parameter is settable too (it ends in "Capacity", as the reserves'
+    # capacities, which are not).
+    settings = [f"{k}={v}" for k, v in GRID_SIDE.items()] + ["gridSideReference=true", "heatCapacity=30000"]
     done = prequalify(
         "--fmu",
         fmu_path,
@@ -314,6 +316,7 @@ def test_the_runner_measures_what_the_grid_sees(fmu_path):
         (["--jobs", "0"], "--jobs", ["positive"]),
         (["--parameter", "auxilaryPower=150"], "--parameter", ["did you mean 'auxiliaryPower'"]),
         (["--parameter", "nModules=3"], "--parameter", ["nModules", "not a parameter this command lets you set"]),
+        (["--parameter", "fcrDUpCapacity=1e6"], "--parameter", ["fcrDUpCapacity", "not a parameter"]),
         (["--parameter", "auxiliaryPower"], "--parameter", ["NAME=VALUE"]),
         (["--parameter", "thermalModel=yes"], "--parameter", ["Boolean"]),
         (["--parameter", "auxiliaryPower=lots"], "--parameter", ["Real"]),

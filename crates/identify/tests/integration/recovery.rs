@@ -256,10 +256,8 @@ fn the_temperature_coefficients_are_recovered_within_their_intervals() {
         kv.standard_error < 0.05 * 0.08 && kr.standard_error < 0.3 * 0.0015,
         "{kv:?} {kr:?}"
     );
-    assert!(
-        (t.ohmic_resistance.value - spec.truth.ohmic_resistance).abs()
-            < 0.01 * spec.truth.ohmic_resistance
-    );
+    let r = t.ohmic_resistance.expect("R identified");
+    assert!((r.value - spec.truth.ohmic_resistance).abs() < 0.01 * spec.truth.ohmic_resistance);
     assert!(t.rmse < 1.2 * spec.voltage_noise, "{}", t.rmse);
 }
 
@@ -343,4 +341,29 @@ fn the_heat_balance_needs_an_ambient_column() {
         Stage::Skipped(why) => assert!(why.contains("no ambient_temperature column"), "{why}"),
         Stage::Done(h) => panic!("fitted {h:?}"),
     }
+}
+
+/// A warm-up at constant current: kV alone, R and kR said to be not identifiable.
+#[test]
+fn a_constant_current_gives_kv_alone() {
+    let dir = scratch("identify_constant_current");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut csv = String::from("time,current,voltage,temperature\n");
+    for k in 0..600 {
+        let t = 45.0 + 10.0 * (1.0 - (-(k as f64) / 200.0).exp()); // 45 → 55 °C
+        csv += &format!("{k},40,{},{t}\n", 41.0 - 0.05 * (t - 55.0));
+    }
+    let path = dir.join("warm-up.csv");
+    std::fs::write(&path, csv).unwrap();
+    let logs = read::read_files(&[path], &ReadOptions::default(), &|| {}).unwrap();
+    let fit = identify::fit_module(&logs[0], &FitOptions::default());
+    let Stage::Done(t) = &fit.temperature else {
+        panic!("{:?}", fit.temperature);
+    };
+    assert!((t.voltage_coefficient.value + 0.05).abs() < 1e-9, "{t:?}");
+    assert!(t.ohmic_resistance.is_none() && t.resistance_coefficient.is_none());
+    assert!(
+        t.notes.iter().any(|n| n.contains("current does not vary")),
+        "{t:?}"
+    );
 }

@@ -25,6 +25,8 @@ struct Rule<const S: usize> {
     c: [f64; S],
     w: [f64; S],
     a: SMatrix<f64, S, S>,
+    /// The largest gap between consecutive nodes, 0 and 1 included [1].
+    gap: f64,
 }
 
 impl<const S: usize> Rule<S> {
@@ -55,7 +57,19 @@ impl<const S: usize> Rule<S> {
             }
             w[j] = integral(1.0);
         }
-        Rule { c: nodes, w, a }
+        let gap = (0..=S)
+            .map(|k| {
+                let lo = if k == 0 { 0.0 } else { nodes[k - 1] };
+                let hi = if k == S { 1.0 } else { nodes[k] };
+                hi - lo
+            })
+            .fold(0.0, f64::max);
+        Rule {
+            c: nodes,
+            w,
+            a,
+            gap,
+        }
     }
 }
 
@@ -76,7 +90,9 @@ fn gauss4() -> Rule<4> {
 }
 
 /// What one rule gives over a piece: T at its end, ∫(T − Tn), ∫(T − Tn)·I, ∫(T − Tn)·I²,
-/// and the largest and smallest temperature seen.
+/// and bounds of the temperature over the piece: the largest and smallest of the stage and end
+/// values, widened by twice the largest stage slope |dT/dt| times the largest gap between them
+/// (the temperature cannot pass the setpoint between the nodes unseen).
 #[derive(Clone, Copy)]
 struct Outcome {
     end: f64,
@@ -130,11 +146,13 @@ where
     }
     let tn = p.nominal_temperature;
     let (mut end, mut integrals) = (t0, [0.0; 3]);
-    let (mut highest, mut lowest) = (t0, t0);
+    let (mut highest, mut lowest, mut slope) = (t0, t0, 0.0f64);
     for j in 0..S {
         let t = stages[j];
         let weight = rule.w[j] * h;
-        end += weight * (a_diag[j] * t + b[j]);
+        let rate = a_diag[j] * t + b[j];
+        slope = slope.max(rate.abs());
+        end += weight * rate;
         let deviation = t - tn;
         integrals[0] += weight * deviation;
         integrals[1] += weight * deviation * current[j];
@@ -142,11 +160,12 @@ where
         highest = highest.max(t);
         lowest = lowest.min(t);
     }
+    let reach = 2.0 * slope * rule.gap * h;
     Some(Outcome {
         end,
         integrals,
-        highest: highest.max(end),
-        lowest: lowest.min(end),
+        highest: highest.max(end) + reach,
+        lowest: lowest.min(end) - reach,
     })
 }
 
@@ -252,7 +271,7 @@ pub(super) fn step(
     }
     let fine = whole;
     let cooling = balance.thermostat_power(0.0, regime);
-    let (cooling_energy, heating_energy) = if cooling < 0.0 {
+    let (cooling_energy, heating_energy) = if cooling < 0.0 && balance.heater > 0.0 {
         (0.0, -cooling * h)
     } else {
         (cooling * h, 0.0)

@@ -216,7 +216,9 @@ fn held_throughout(
         return None;
     }
     let surplus_integral = c1 * env.charge + c2 * env.current_squared - loss * h;
-    let (cooling_energy, heating_energy) = if surplus_integral < 0.0 {
+    // Heat is only ever supplied by a heater (in standby); without one a negative integral is
+    // rounding of a surplus that stays ≥ 0.
+    let (cooling_energy, heating_energy) = if surplus_integral < 0.0 && balance.heater > 0.0 {
         (0.0, -surplus_integral)
     } else {
         (surplus_integral, 0.0)
@@ -299,7 +301,7 @@ fn constant_piece(
     out.temperature_integral += integral;
     out.heat_charge += current * integral;
     out.heat_squared += current * current * integral;
-    if cooling < 0.0 {
+    if cooling < 0.0 && balance.heater > 0.0 {
         out.heating_energy -= cooling * span;
     } else {
         out.cooling_energy += cooling * span;
