@@ -17,6 +17,7 @@ use aem_model::{
     PlantSettings, PlantSnapshot, ReserveSettings, ThermalParameters,
 };
 
+use super::state_error::StateError;
 use super::state_machine::FmiState;
 use super::variables::Inputs;
 
@@ -268,40 +269,36 @@ impl SavedState {
     }
 
     /// Parses bytes made by [`SavedState::serialize`], refusing anything else with a reason.
-    pub fn deserialize(bytes: &[u8]) -> Result<SavedState, String> {
+    pub fn deserialize(bytes: &[u8]) -> Result<SavedState, StateError> {
         let mut r = Reader { bytes, pos: 0 };
         if r.take(8)? != MAGIC {
-            return Err("not a serialised state of this FMU (bad magic)".into());
+            return Err(StateError::BadMagic);
         }
         let version = r.u32()?;
         if version != FORMAT_VERSION {
-            return Err(format!("serialised state has format version {version}; this FMU reads version {FORMAT_VERSION}"));
+            return Err(StateError::Version(version));
         }
         let len = r.u32()? as usize;
         if bytes.len() != 16 + len + 4 {
-            return Err(format!(
-                "serialised state is {} bytes; its header announces {}",
-                bytes.len(),
-                16 + len + 4
-            ));
+            return Err(StateError::Length {
+                actual: bytes.len(),
+                announced: 16 + len + 4,
+            });
         }
         let crc = u32::from_le_bytes(
             bytes[16 + len..]
                 .try_into()
-                .map_err(|_| "truncated checksum")?,
+                .map_err(|_| StateError::TruncatedChecksum)?,
         );
         if crc != crc32fast::hash(&bytes[..16 + len]) {
-            return Err("serialised state is corrupt (checksum mismatch)".into());
+            return Err(StateError::Checksum);
         }
         r.bytes = &bytes[..16 + len];
         let guid_len = r.u32()? as usize;
         if r.take(guid_len)? != GUID.as_bytes() {
-            return Err(format!(
-                "serialised state belongs to another model (GUID differs from {GUID})"
-            ));
+            return Err(StateError::OtherModel);
         }
-        let fmi_state =
-            FmiState::from_code(r.u8()?).ok_or("serialised state has an unknown FMI state")?;
+        let fmi_state = FmiState::from_code(r.u8()?).ok_or(StateError::UnknownFmiState)?;
         let excursion = r.flag()?;
         let has_stop = r.flag()?;
         let params = read_parameters(&mut r)?;
@@ -359,7 +356,7 @@ impl SavedState {
         let (setpoint_slope, time, stop) = (r.finite()?, r.finite()?, r.finite()?);
         let path_len = r.u32()? as usize;
         let module_parameter_file = String::from_utf8(r.take(path_len)?.to_vec())
-            .map_err(|_| "serialised state holds a file name that is not UTF-8")?;
+            .map_err(|_| StateError::FileNameNotUtf8)?;
         let has_sets = r.flag()?;
         let set_count = r.u32()? as usize;
         if set_count
@@ -367,7 +364,7 @@ impl SavedState {
             .is_none_or(|b| b > r.bytes.len() - r.pos)
             || (!has_sets && set_count > 0)
         {
-            return Err("serialised state is truncated (parameter sets)".into());
+            return Err(StateError::Truncated(Some("parameter sets")));
         }
         let mut sets = Vec::with_capacity(set_count);
         for _ in 0..set_count {
@@ -379,7 +376,7 @@ impl SavedState {
             0 => FastReserve::Armed,
             1 => FastReserve::Active { until },
             2 => FastReserve::Spent,
-            other => return Err(format!("serialised state has an unknown FFR state {other}")),
+            other => return Err(StateError::UnknownFfrState(other)),
         };
         let reserve = ReserveState {
             fast,
@@ -409,23 +406,16 @@ impl SavedState {
                 }))
             }
             PLANT_HUB => Some(PlantSnapshot::Hub(read_hub(&mut r)?)),
-            other => {
-                return Err(format!(
-                    "serialised state has an unknown plant kind {other}"
-                ))
-            }
+            other => return Err(StateError::UnknownPlantKind(other)),
         };
         if r.pos != r.bytes.len() {
-            return Err("serialised state has trailing bytes".into());
+            return Err(StateError::TrailingBytes);
         }
         if plant.is_some() {
             for p in std::iter::once(&params).chain(module_sets.iter().flatten()) {
-                p.validate()
-                    .map_err(|e| format!("serialised state holds invalid parameters: {e}"))?;
+                p.validate().map_err(StateError::InvalidParameters)?;
             }
-            settings
-                .config()
-                .map_err(|e| format!("serialised state holds invalid settings: {e}"))?;
+            settings.config().map_err(StateError::InvalidSettings)?;
         }
         let stop_time = has_stop.then_some(stop);
         Ok(SavedState::new(
@@ -479,7 +469,7 @@ fn thermal_values(t: &ThermalParameters) -> [f64; 10] {
     ]
 }
 
-fn read_thermal(r: &mut Reader) -> Result<ThermalParameters, String> {
+fn read_thermal(r: &mut Reader) -> Result<ThermalParameters, StateError> {
     let n_cells = r.u32()? as i32;
     let mut x = [0.0; 10];
     for v in x.iter_mut() {
@@ -500,7 +490,7 @@ fn read_thermal(r: &mut Reader) -> Result<ThermalParameters, String> {
     })
 }
 
-fn read_parameters(r: &mut Reader) -> Result<Parameters, String> {
+fn read_parameters(r: &mut Reader) -> Result<Parameters, StateError> {
     let mut p = [0.0; 11];
     for v in p.iter_mut() {
         *v = r.finite()?;
@@ -521,13 +511,13 @@ fn read_parameters(r: &mut Reader) -> Result<Parameters, String> {
 }
 
 /// A hub's groups and totals; the group count is bounded by the bytes that hold them.
-fn read_hub(r: &mut Reader) -> Result<HubSnapshot, String> {
+fn read_hub(r: &mut Reader) -> Result<HubSnapshot, StateError> {
     const GROUP_BYTES: usize = 4 + 4 + 1 + 1 + 6 * 8 + 8;
     let n = r.u32()? as usize;
     if n.checked_mul(GROUP_BYTES)
         .is_none_or(|b| b > r.bytes.len() - r.pos)
     {
-        return Err("serialised state is truncated (hub groups)".into());
+        return Err(StateError::Truncated(Some("hub groups")));
     }
     let mut groups = Vec::with_capacity(n);
     for _ in 0..n {
@@ -537,9 +527,7 @@ fn read_hub(r: &mut Reader) -> Result<HubSnapshot, String> {
         let state = OperatingState::ALL
             .into_iter()
             .find(|s| s.code() == code as i32)
-            .ok_or(format!(
-                "serialised state has an unknown operating state {code}"
-            ))?;
+            .ok_or(StateError::UnknownOperatingState(code))?;
         let (timer, z1, z2, current, running, temperature) = (
             r.finite()?,
             r.finite()?,
@@ -608,47 +596,44 @@ struct Reader<'a> {
 }
 
 impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
+    fn take(&mut self, n: usize) -> Result<&'a [u8], StateError> {
         let end = self
             .pos
             .checked_add(n)
             .filter(|e| *e <= self.bytes.len())
-            .ok_or("serialised state is truncated")?;
+            .ok_or(StateError::Truncated(None))?;
         let slice = &self.bytes[self.pos..end];
         self.pos = end;
         Ok(slice)
     }
-    fn u8(&mut self) -> Result<u8, String> {
+    fn u8(&mut self) -> Result<u8, StateError> {
         Ok(self.take(1)?[0])
     }
-    fn flag(&mut self) -> Result<bool, String> {
+    fn flag(&mut self) -> Result<bool, StateError> {
         match self.u8()? {
             0 => Ok(false),
             1 => Ok(true),
-            other => Err(format!("serialised state has an invalid flag {other}")),
+            other => Err(StateError::InvalidFlag(other)),
         }
     }
-    fn u32(&mut self) -> Result<u32, String> {
+    fn u32(&mut self) -> Result<u32, StateError> {
         let b = self.take(4)?;
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
-    fn u64(&mut self) -> Result<u64, String> {
+    fn u64(&mut self) -> Result<u64, StateError> {
         let mut a = [0u8; 8];
         a.copy_from_slice(self.take(8)?);
         Ok(u64::from_le_bytes(a))
     }
     /// A finite f64 (saved states hold only finite numbers).
-    fn finite(&mut self) -> Result<f64, String> {
+    fn finite(&mut self) -> Result<f64, StateError> {
         let mut a = [0u8; 8];
         a.copy_from_slice(self.take(8)?);
         let x = f64::from_le_bytes(a);
         if x.is_finite() {
             Ok(x)
         } else {
-            Err(format!(
-                "serialised state holds a non-finite value at byte {}",
-                self.pos - 8
-            ))
+            Err(StateError::NonFinite(self.pos - 8))
         }
     }
 }
