@@ -22,6 +22,39 @@ impl Os {
     pub const HERE: Os = if cfg!(windows) { Os::Windows } else { Os::Unix };
 }
 
+/// Why a `file:` URI names no local file; each carries the URI.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum UriError {
+    /// Not a `file:` URI at all.
+    NotFileUri(String),
+    /// Its percent-encoded path is not UTF-8.
+    PathNotUtf8(String),
+    /// (Unix) No absolute path.
+    NoAbsolutePath(String),
+    /// (Unix) It names another host.
+    RemoteHost { uri: String, host: String },
+    /// (Windows) Neither a drive letter nor a UNC host.
+    NoDriveOrHost(String),
+}
+
+impl std::fmt::Display for UriError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            UriError::NotFileUri(uri) => write!(f, "\"{uri}\" is not a file: URI"),
+            UriError::PathNotUtf8(uri) => {
+                write!(f, "\"{uri}\": the percent-encoded path is not UTF-8")
+            }
+            UriError::NoAbsolutePath(uri) => write!(f, "\"{uri}\" has no absolute path"),
+            UriError::RemoteHost { uri, host } => {
+                write!(f, "\"{uri}\" names host \"{host}\", not a local file")
+            }
+            UriError::NoDriveOrHost(uri) => write!(f, "\"{uri}\" has no drive letter or UNC host"),
+        }
+    }
+}
+
+impl std::error::Error for UriError {}
+
 /// Whether `text` is a `file:` URI (the scheme is case-insensitive).
 pub fn is_file_uri(text: &str) -> bool {
     text.get(..5)
@@ -29,9 +62,9 @@ pub fn is_file_uri(text: &str) -> bool {
 }
 
 /// The local path of the `file:` URI `uri`, percent-decoded, following `os`'s rules.
-pub fn file_uri_to_path(uri: &str, os: Os) -> Result<PathBuf, String> {
+pub fn file_uri_to_path(uri: &str, os: Os) -> Result<PathBuf, UriError> {
     if !is_file_uri(uri) {
-        return Err(format!("\"{uri}\" is not a file: URI"));
+        return Err(UriError::NotFileUri(uri.into()));
     }
     let rest = &uri[5..];
     // file://host/path or file:///path (empty host); file:/path has no authority at all.
@@ -44,12 +77,15 @@ pub fn file_uri_to_path(uri: &str, os: Os) -> Result<PathBuf, String> {
     };
     let path = percent_decode_str(path)
         .decode_utf8()
-        .map_err(|_| format!("\"{uri}\": the percent-encoded path is not UTF-8"))?;
+        .map_err(|_| UriError::PathNotUtf8(uri.into()))?;
     let local_host = host.is_empty() || host.eq_ignore_ascii_case("localhost");
     match os {
         Os::Unix if local_host && path.starts_with('/') => Ok(PathBuf::from(path.into_owned())),
-        Os::Unix if local_host => Err(format!("\"{uri}\" has no absolute path")),
-        Os::Unix => Err(format!("\"{uri}\" names host \"{host}\", not a local file")),
+        Os::Unix if local_host => Err(UriError::NoAbsolutePath(uri.into())),
+        Os::Unix => Err(UriError::RemoteHost {
+            uri: uri.into(),
+            host: host.into(),
+        }),
         Os::Windows => {
             let backslashed = path.replace('/', "\\");
             if !local_host {
@@ -68,7 +104,7 @@ pub fn file_uri_to_path(uri: &str, os: Os) -> Result<PathBuf, String> {
                     &backslashed[3..]
                 )))
             } else {
-                Err(format!("\"{uri}\" has no drive letter or UNC host"))
+                Err(UriError::NoDriveOrHost(uri.into()))
             }
         }
     }
@@ -77,7 +113,7 @@ pub fn file_uri_to_path(uri: &str, os: Os) -> Result<PathBuf, String> {
 /// The file that `moduleParameterFile = value` names: a `file:` URI is decoded; a relative
 /// path is looked up in the FMU's resources folder (`resources`, from fmuResourceLocation)
 /// first and then in the working directory; an absolute path is taken as it is.
-pub fn locate(value: &str, resources: Option<&Path>, os: Os) -> Result<PathBuf, String> {
+pub fn locate(value: &str, resources: Option<&Path>, os: Os) -> Result<PathBuf, UriError> {
     if is_file_uri(value) {
         return file_uri_to_path(value, os);
     }
@@ -96,7 +132,9 @@ mod tests {
     use super::*;
 
     fn windows(uri: &str) -> Result<String, String> {
-        file_uri_to_path(uri, Os::Windows).map(|p| p.to_string_lossy().into_owned())
+        file_uri_to_path(uri, Os::Windows)
+            .map(|p| p.to_string_lossy().into_owned())
+            .map_err(|e| e.to_string())
     }
 
     #[test]
@@ -125,7 +163,7 @@ mod tests {
 
     #[test]
     fn unix_uris_are_local_absolute_paths() {
-        let unix = |uri: &str| file_uri_to_path(uri, Os::Unix);
+        let unix = |uri: &str| file_uri_to_path(uri, Os::Unix).map_err(|e| e.to_string());
         assert_eq!(
             unix("file:///tmp/a%20b/resources"),
             Ok(PathBuf::from("/tmp/a b/resources"))
