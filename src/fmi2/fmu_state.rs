@@ -276,7 +276,10 @@ impl SavedState {
         }
         let version = r.u32()?;
         if version != FORMAT_VERSION {
-            return Err(StateError::Version(version));
+            return Err(StateError::Version {
+                found: version,
+                reads: FORMAT_VERSION,
+            });
         }
         let len = r.u32()? as usize;
         if bytes.len() != 16 + len + 4 {

@@ -5,7 +5,6 @@ use std::fmt;
 
 use aem_model::ParameterError;
 
-use super::fmu_state::FORMAT_VERSION;
 use crate::model_description::GUID;
 
 /// A serialised state that this FMU does not take.
@@ -13,8 +12,8 @@ use crate::model_description::GUID;
 pub enum StateError {
     /// The first bytes are not this FMU's magic.
     BadMagic,
-    /// Another format version.
-    Version(u32),
+    /// Another format version than the one this FMU reads.
+    Version { found: u32, reads: u32 },
     /// The byte count differs from the header's.
     Length { actual: usize, announced: usize },
     /// No room for the checksum.
@@ -52,9 +51,9 @@ impl fmt::Display for StateError {
         use StateError::*;
         match self {
             BadMagic => write!(f, "not a serialised state of this FMU (bad magic)"),
-            Version(v) => write!(
+            Version { found, reads } => write!(
                 f,
-                "serialised state has format version {v}; this FMU reads version {FORMAT_VERSION}"
+                "serialised state has format version {found}; this FMU reads version {reads}"
             ),
             Length { actual, announced } => write!(
                 f,
@@ -111,10 +110,8 @@ mod tests {
             "serialised state is 10 bytes; its header announces 11"
         );
         assert_eq!(
-            StateError::Version(2).to_string(),
-            format!(
-                "serialised state has format version 2; this FMU reads version {FORMAT_VERSION}"
-            )
+            StateError::Version { found: 2, reads: 8 }.to_string(),
+            "serialised state has format version 2; this FMU reads version 8"
         );
         let e = ParameterError {
             name: "gain",

@@ -20,6 +20,7 @@
 use super::parameters::ParameterError;
 
 mod collocation;
+mod path;
 pub mod step;
 
 /// Ambient temperature a stack sees until it is told another [K] (15 °C, the FMU's start value

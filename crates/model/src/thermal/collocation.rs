@@ -16,7 +16,7 @@ use std::sync::OnceLock;
 
 use nalgebra::{Const, DimMin, SMatrix, SVector, ToTypenum};
 
-use super::step::{CurrentPath, ThermalStep, ABSOLUTE_TOLERANCE, RELATIVE_TOLERANCE};
+use super::path::{CurrentPath, ThermalStep, ABSOLUTE_TOLERANCE, RELATIVE_TOLERANCE};
 use super::{HeatBalance, Regime};
 
 /// A Gauss–Legendre collocation rule with S stages on [0, 1]: nodes c, weights w and the

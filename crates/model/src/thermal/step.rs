@@ -14,49 +14,14 @@ use ode_solvers::continuous_output_model::ContinuousOutputModel;
 use ode_solvers::dop_shared::IntegrationError;
 use ode_solvers::{Dopri5, System, Vector5};
 
+pub use super::path::{CurrentPath, ThermalStep, ABSOLUTE_TOLERANCE, RELATIVE_TOLERANCE};
 use super::{HeatBalance, Regime};
-use crate::dynamics::Envelope;
 use crate::roots::first_crossing;
 
-/// Relative tolerance of the integrator, per integrator step [1].
-pub const RELATIVE_TOLERANCE: f64 = 1e-11;
-/// Absolute tolerance of the integrator, per integrator step (K for the temperature).
-pub const ABSOLUTE_TOLERANCE: f64 = 1e-9;
 /// Most regime changes in one step before the step is refused (a thermostat that chatters).
 pub const MAX_REGIME_CHANGES: u32 = 10_000;
 /// Points sampled to find where a regime that started at the setpoint left it.
 const DIP_SAMPLES: usize = 32;
-
-/// The stack current over one step.
-pub trait CurrentPath {
-    /// I(τ) [A] at τ seconds into the step.
-    fn current(&self, tau: f64) -> f64;
-    /// The current, if it is the same over the whole step [A].
-    fn constant(&self) -> Option<f64>;
-    /// Over a step of `h` [s], its extremes and integrals where they are known in closed form.
-    fn envelope(&self, _h: f64) -> Option<Envelope> {
-        None
-    }
-}
-
-/// What one step of the temperature gives.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ThermalStep {
-    /// T at the end of the step [K].
-    pub temperature: f64,
-    /// ∫(T − Tn) dt [K·s].
-    pub temperature_integral: f64,
-    /// ∫(T − Tn)·I dt [K·A·s] (the voltage's kV term of the energy).
-    pub heat_charge: f64,
-    /// ∫(T − Tn)·I² dt [K·A²·s] (the voltage's kR term of the energy).
-    pub heat_squared: f64,
-    /// ∫max(Qc, 0) dt: heat the cooling removed [J].
-    pub cooling_energy: f64,
-    /// ∫max(−Qc, 0) dt: heat the standby heater supplied [J].
-    pub heating_energy: f64,
-    /// Changes of the thermostat's regime within the step.
-    pub regime_changes: u32,
-}
 
 /// Why the integrator gave up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
