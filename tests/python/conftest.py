@@ -145,6 +145,15 @@ def driver(unzipdir, model_description):
             pass
 
 
+#: The model page's worked example of the grid side (docs/model.md): auxiliaries and supply losses.
+WORKED_EXAMPLE = {
+    "auxiliaryPower": 150.0,
+    "supplyNoLoadLoss": 30.0,
+    "supplyLossVoltage": 0.6,
+    "supplyLossResistance": 0.015,
+}
+
+
 def module_power(setpoint, p=PAPER):
     """Steady stack power of one module [W] at `setpoint` [%]: (V0 + R*K*u)*K*u."""
     i = p["gain"] * setpoint

@@ -11,14 +11,12 @@
 //! the log has too few windows below the setpoint, or no heat in them (a log of cool-downs
 //! alone gives Rth·C, not C).
 
+use aem_model::thermal::THERMONEUTRAL_CELL_VOLTAGE;
 use nalgebra::{Matrix2, Vector2};
 
 use super::columns::Channel;
 use super::dynamics::Estimate;
 use super::read::ModuleLog;
-
-/// n·1.481 V per cell: the thermoneutral voltage of one cell [V].
-const THERMONEUTRAL_CELL_VOLTAGE: f64 = 1.481;
 
 /// Which stretches the fit uses.
 #[derive(Clone, Debug)]

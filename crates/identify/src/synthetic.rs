@@ -17,6 +17,7 @@
 
 use std::fmt::Write as _;
 
+use aem_model::thermal::THERMONEUTRAL_CELL_VOLTAGE;
 use aem_model::{CurrentState, Module, ModuleState, ParameterError, Parameters};
 
 /// Seeded SplitMix64 generator with Gaussian draws (Box–Muller).
@@ -347,7 +348,7 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
                 // thermostat holds 55 °C against any surplus.
                 let ta = ambient_at(t, th);
                 let heat = if running && i_true > 0.0 {
-                    (voltage - f64::from(th.cells) * 1.481) * i_true
+                    (voltage - f64::from(th.cells) * THERMONEUTRAL_CELL_VOLTAGE) * i_true
                 } else {
                     0.0
                 };

@@ -221,13 +221,7 @@ mod tests {
     #[test]
     fn the_stack_side_curve_is_the_polarisation_curve_bit_for_bit() {
         let p = Parameters::default();
-        let lossy = GridParameters {
-            auxiliary_power: 150.0,
-            supply_no_load_loss: 40.0,
-            supply_loss_voltage: 0.8,
-            supply_loss_resistance: 0.002,
-            grid_side_reference: false,
-        };
+        let lossy = crate::grid::TEST_LOSSES;
         let curve = PowerCurve::new(&p, &lossy);
         for u in [0.0, 1.0, 60.0, 77.7, 100.0] {
             assert_eq!(curve.power(u).to_bits(), power_at_setpoint(&p, u).to_bits());
@@ -243,11 +237,8 @@ mod tests {
     fn the_grid_side_curve_adds_the_losses_and_auxiliaries_and_inverts() {
         let p = Parameters::default();
         let grid = GridParameters {
-            auxiliary_power: 150.0,
-            supply_no_load_loss: 40.0,
-            supply_loss_voltage: 0.8,
-            supply_loss_resistance: 0.002,
             grid_side_reference: true,
+            ..crate::grid::TEST_LOSSES
         };
         let curve = PowerCurve::new(&p, &grid);
         for u in [1.0, 60.0, 77.7, 100.0] {

@@ -85,6 +85,16 @@ impl GridParameters {
     }
 }
 
+/// Assumed losses of a 2.4 kW module's supply and balance of plant, for the tests.
+#[cfg(test)]
+pub(crate) const TEST_LOSSES: GridParameters = GridParameters {
+    auxiliary_power: 150.0,
+    supply_no_load_loss: 40.0,
+    supply_loss_voltage: 0.8,
+    supply_loss_resistance: 0.002,
+    grid_side_reference: false,
+};
+
 /// The current's moments over some modules: either now (counts [1], ΣI [A], ΣI² [A²]) or
 /// integrated over time (module-seconds [s], ∫ΣI dt [A·s], ∫ΣI² dt [A²·s]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -103,13 +113,7 @@ pub struct CurrentSums {
 mod tests {
     use super::*;
 
-    const LOSSY: GridParameters = GridParameters {
-        auxiliary_power: 150.0,
-        supply_no_load_loss: 40.0,
-        supply_loss_voltage: 0.8,
-        supply_loss_resistance: 0.002,
-        grid_side_reference: false,
-    };
+    const LOSSY: GridParameters = TEST_LOSSES;
 
     #[test]
     fn a_running_module_draws_its_losses_and_auxiliaries() {

@@ -13,7 +13,7 @@ independence while the current moves.
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from conftest import PAPER
+from conftest import PAPER, WORKED_EXAMPLE
 
 K, V0, R = PAPER["gain"], PAPER["voltageIntercept"], PAPER["ohmicResistance"]
 #: Assumed losses of a 2.4 kW module's supply and balance of plant (test values).
@@ -144,12 +144,6 @@ def test_a_negative_loss_refuses_initialisation_with_its_name(driver, name):
 )
 def test_the_worked_example_of_the_model_page(driver, setpoint, ac_power, grid_kwh_per_kg):
     """docs/model.md's worked example (socket sizes of Enapter's handbook, an assumed supply)."""
-    example = {
-        "auxiliaryPower": 150.0,
-        "supplyNoLoadLoss": 30.0,
-        "supplyLossVoltage": 0.6,
-        "supplyLossResistance": 0.015,
-    }
-    d = instance(driver, setpoint=setpoint, **example)
+    d = instance(driver, setpoint=setpoint, **WORKED_EXAMPLE)
     assert round(d.get("acPower")) == ac_power
     assert round(d.get("acPower") / 1000.0 / d.get("hubH2MassFlow"), 1) == grid_kwh_per_kg

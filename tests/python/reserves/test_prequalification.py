@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from conftest import PAPER, ROOT, module_power, setpoint_for
+from conftest import PAPER, ROOT, WORKED_EXAMPLE, module_power, setpoint_for
 
 N = 100
 K, RAMP = PAPER["gain"], PAPER["rampUpLimit"]
@@ -233,13 +233,7 @@ def test_an_empty_window_is_not_tested(fmu_path, tmp_path):
     assert not list(tmp_path.glob("*.png"))
 
 
-#: The model page's worked example of the grid side (auxiliaries and supply losses).
-GRID_SIDE = {
-    "auxiliaryPower": 150.0,
-    "supplyNoLoadLoss": 30.0,
-    "supplyLossVoltage": 0.6,
-    "supplyLossResistance": 0.015,
-}
+GRID_SIDE = WORKED_EXAMPLE
 
 
 def grid_power(setpoint):

@@ -4,14 +4,7 @@
 use super::*;
 use crate::dispatch::power_at_setpoint;
 
-/// Assumed losses of a 2.4 kW module's supply and balance of plant (test values).
-const LOSSY: GridParameters = GridParameters {
-    auxiliary_power: 150.0,
-    supply_no_load_loss: 40.0,
-    supply_loss_voltage: 0.8,
-    supply_loss_resistance: 0.002,
-    grid_side_reference: false,
-};
+const LOSSY: GridParameters = crate::grid::TEST_LOSSES;
 
 fn plant(settings: PlantSettings, setpoint: f64, power: f64) -> (Plant, PlantConfig) {
     let config = settings.config().unwrap();
