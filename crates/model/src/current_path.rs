@@ -1,6 +1,7 @@
 //! The stack current over one step as a function of time, for what is integrated along it
 //! (the stack temperature): the exact current of [`CurrentDynamics`] from the step's start.
 
+use super::ageing::DriftChange;
 use super::dynamics::{CurrentDynamics, CurrentState, Envelope, StepFactors};
 use super::thermal::step::CurrentPath;
 
@@ -15,6 +16,8 @@ pub struct HeldSetpoint<'a> {
     pub start: CurrentState,
     /// The setpoint held over the step [%].
     pub setpoint: f64,
+    /// How the voltage drifts over the step ([`DriftChange::NONE`] without ageing).
+    pub drift: DriftChange,
 }
 
 impl CurrentPath for HeldSetpoint<'_> {
@@ -34,8 +37,12 @@ impl CurrentPath for HeldSetpoint<'_> {
         state.current
     }
 
-    /// At the steady state (within 1e-12 of it) the current stays where it is.
+    /// At the steady state (within 1e-12 of it) the current stays where it is (and the step is
+    /// not constant where the drift moves).
     fn constant(&self) -> Option<f64> {
+        if self.drift.varies() {
+            return None;
+        }
         let steady = self.dynamics.steady_state(self.setpoint);
         let tolerance = STEADY * steady.current.abs().max(1.0);
         let near = |a: f64, b: f64| (a - b).abs() <= tolerance;
@@ -50,6 +57,25 @@ impl CurrentPath for HeldSetpoint<'_> {
         self.dynamics
             .tracking_envelope(&self.start, self.setpoint, h)
     }
+
+    fn drift(&self, tau: f64) -> f64 {
+        self.drift.at(tau)
+    }
+
+    fn drift_bounds(&self, h: f64) -> (f64, f64) {
+        self.drift.bounds(h)
+    }
+
+    fn drift_charge(&self, h: f64) -> f64 {
+        if !self.drift.varies() {
+            return 0.0;
+        }
+        let mut state = self.start;
+        let ints = self
+            .dynamics
+            .advance_with_moments(&mut state, self.setpoint, h, self.drift.rate);
+        self.drift.charge(&ints)
+    }
 }
 
 /// The current from `start` with the setpoint rising linearly from `setpoint` [%] at `slope`
@@ -63,6 +89,8 @@ pub struct LinearSetpoint<'a> {
     pub setpoint: f64,
     /// Its rate of change [%/s].
     pub slope: f64,
+    /// How the voltage drifts over the step ([`DriftChange::NONE`] without ageing).
+    pub drift: DriftChange,
 }
 
 impl CurrentPath for LinearSetpoint<'_> {
@@ -78,6 +106,14 @@ impl CurrentPath for LinearSetpoint<'_> {
 
     fn constant(&self) -> Option<f64> {
         None
+    }
+
+    fn drift(&self, tau: f64) -> f64 {
+        self.drift.at(tau)
+    }
+
+    fn drift_bounds(&self, h: f64) -> (f64, f64) {
+        self.drift.bounds(h)
     }
 }
 

@@ -50,6 +50,10 @@ pub struct CurrentIntegrals {
     pub current_squared: f64,
     /// Time during which the rate limit was binding [s].
     pub ramp_time: f64,
+    /// ∫τ·I dτ over the step, τ from its start [A·s²] (only from [`CurrentDynamics::advance_with_moments`]).
+    pub time_moment: f64,
+    /// ∫e^(−μτ)·I dτ over the step [A·s] (only from [`CurrentDynamics::advance_with_moments`]).
+    pub decay_moment: f64,
 }
 
 /// The current over one step where it is known in closed form.
@@ -463,11 +467,33 @@ impl CurrentDynamics {
             return CurrentIntegrals {
                 charge: fast.charge,
                 current_squared: fast.current_squared,
-                ramp_time: 0.0,
+                ..CurrentIntegrals::default()
             };
         }
         let decay = factors.decay;
-        self.advance_segment(state, u, 0.0, h, &decay)
+        self.advance_segment(state, u, 0.0, h, &decay, None)
+    }
+
+    /// [`Self::advance`] with the current's moments over the step as well: ∫τ·I dτ and
+    /// ∫e^(−μτ)·I dτ for a rate `mu` > 0 [1/s], in closed form on every ramp and tracking
+    /// segment (what a voltage that drifts linearly and exponentially in time draws).
+    pub fn advance_with_moments(
+        &self,
+        state: &mut CurrentState,
+        u: f64,
+        h: f64,
+        mu: f64,
+    ) -> CurrentIntegrals {
+        if self.compensated {
+            let (c1, c2) = (-self.gain * u * self.b / self.a, self.gain * u);
+            state.z1 += c1;
+            state.z2 += c2;
+            let integrals = self.plain().advance_with_moments(state, u, h, mu);
+            state.z1 -= c1;
+            state.z2 -= c2;
+            return integrals;
+        }
+        self.advance_segment(state, u, 0.0, h, &self.decay(h), Some(mu))
     }
 
     /// The same dynamics without compensation.
@@ -493,7 +519,23 @@ impl CurrentDynamics {
             !self.compensated,
             "compensated dynamics take held setpoints only"
         );
-        self.advance_segment(state, u0, slope, h, &self.decay(h))
+        self.advance_segment(state, u0, slope, h, &self.decay(h), None)
+    }
+
+    /// [`Self::advance_linear`] with the moments of [`Self::advance_with_moments`].
+    pub fn advance_linear_with_moments(
+        &self,
+        state: &mut CurrentState,
+        u0: f64,
+        slope: f64,
+        h: f64,
+        mu: f64,
+    ) -> CurrentIntegrals {
+        debug_assert!(
+            !self.compensated,
+            "compensated dynamics take held setpoints only"
+        );
+        self.advance_segment(state, u0, slope, h, &self.decay(h), Some(mu))
     }
 
     /// One interval with input u(τ) = u0 + v·τ. Each mode follows
@@ -507,6 +549,7 @@ impl CurrentDynamics {
         v: f64,
         h: f64,
         decay: &Decay,
+        mu: Option<f64>,
     ) -> CurrentIntegrals {
         let base = self.gain * u0;
         let s = self.gain * v;
@@ -526,18 +569,22 @@ impl CurrentDynamics {
         if tracking && max_rise <= self.ramp {
             let (charge, current_squared) = self.track_integrals(y, s, dev1, dev2, h, decay);
             state.current = tf_end;
-            return CurrentIntegrals {
+            let mut out = CurrentIntegrals {
                 charge,
                 current_squared,
-                ramp_time: 0.0,
+                ..CurrentIntegrals::default()
             };
+            if let Some(mu) = mu {
+                self.add_track_moments(&mut out, y, s, dev1, dev2, 0.0, charge, h, decay, mu);
+            }
+            return out;
         }
         let start = if tracking {
             tf0
         } else {
             state.current.min(tf0)
         };
-        let (integrals, limited_end) = self.limited_step(y, s, dev1, dev2, start, h, decay);
+        let (integrals, limited_end) = self.limited_step(y, s, dev1, dev2, start, h, decay, mu);
         // I(h) = r·h + M(h) from the running minimum, never above I_tf(h).
         state.current = limited_end.min(tf_end);
         integrals
@@ -557,6 +604,7 @@ impl CurrentDynamics {
         start: f64,
         h: f64,
         decay: &Decay,
+        mu: Option<f64>,
     ) -> (CurrentIntegrals, f64) {
         let curve = Curve {
             y,
@@ -574,6 +622,7 @@ impl CurrentDynamics {
         let mut walk = RunningMinimum {
             m: start,
             out: CurrentIntegrals::default(),
+            mu,
         };
         // h'' vanishes at most once (the inflection); between 0, it and len, h' is monotone, so
         // h is monotone, rises then falls, or falls then rises on each sub-interval.
@@ -591,24 +640,24 @@ impl CurrentDynamics {
                     // bracketed search needs), the top need not be located.
                     let (hp, hq) = (curve.h(&p), curve.h(&q));
                     if hq >= walk.m {
-                        self.add_ramp(&mut walk.out, walk.m, p.t, q.t);
+                        self.add_ramp(&mut walk, p.t, q.t);
                     } else if hp > walk.m {
                         self.falling(&mut walk, &curve, dev1, dev2, &p, &q, decay);
                     } else {
                         let top = curve.point(self.slope_root(&curve, &p, &q, sp, sq));
-                        self.add_ramp(&mut walk.out, walk.m, p.t, top.t);
+                        self.add_ramp(&mut walk, p.t, top.t);
                         self.falling(&mut walk, &curve, dev1, dev2, &top, &q, decay);
                     }
                 } else if sp < 0.0 && sq > 0.0 {
                     // Falls then rises: the bottom matters.
                     let bottom = curve.point(self.slope_root(&curve, &p, &q, sp, sq));
                     self.falling(&mut walk, &curve, dev1, dev2, &p, &bottom, decay);
-                    self.add_ramp(&mut walk.out, walk.m, bottom.t, q.t);
+                    self.add_ramp(&mut walk, bottom.t, q.t);
                 } else if sp <= 0.0 && sq <= 0.0 {
                     self.falling(&mut walk, &curve, dev1, dev2, &p, &q, decay);
                 } else {
                     // h rises: the running minimum holds, the current ramps.
-                    self.add_ramp(&mut walk.out, walk.m, p.t, q.t);
+                    self.add_ramp(&mut walk, p.t, q.t);
                 }
             }
             p = q;
@@ -646,9 +695,9 @@ impl CurrentDynamics {
         let (hp, hq) = (curve.h(p), curve.h(q));
         let m = walk.m;
         if hq >= m {
-            self.add_ramp(&mut walk.out, m, p.t, q.t);
+            self.add_ramp(walk, p.t, q.t);
         } else if hp <= m {
-            self.add_track(&mut walk.out, curve, dev1, dev2, p, q.t, decay);
+            self.add_track(walk, curve, dev1, dev2, p, q.t, decay);
             walk.m = hq;
         } else {
             let crossing = monotone_root(
@@ -661,29 +710,31 @@ impl CurrentDynamics {
                 hp - m,
                 hq - m,
             );
-            self.add_ramp(&mut walk.out, m, p.t, crossing);
-            self.add_track(
-                &mut walk.out,
-                curve,
-                dev1,
-                dev2,
-                &curve.point(crossing),
-                q.t,
-                decay,
-            );
+            self.add_ramp(walk, p.t, crossing);
+            self.add_track(walk, curve, dev1, dev2, &curve.point(crossing), q.t, decay);
             walk.m = hq;
         }
     }
 
-    /// Ramp segment [s0, s1]: I = I0 + r(τ − s0) with I0 = M + r·s0.
-    fn add_ramp(&self, out: &mut CurrentIntegrals, m: f64, s0: f64, s1: f64) {
+    /// Ramp segment [s0, s1]: I = I0 + r(τ − s0) with I0 = M + r·s0; with moments (σ = τ − s0,
+    /// L = s1 − s0) ∫τ·I = s0·∫I + I0 L²/2 + r L³/3 and
+    /// ∫e^(−μτ)·I = e^(−μ s0)·(I0·E(μ) + r·J(μ)) ([`decay_integral`], [`decay_moment`]).
+    fn add_ramp(&self, walk: &mut RunningMinimum, s0: f64, s1: f64) {
+        let out = &mut walk.out;
         let length = s1 - s0;
-        let i0 = m + self.ramp * s0;
+        let i0 = walk.m + self.ramp * s0;
         let r = self.ramp;
-        out.charge += i0 * length + 0.5 * r * length * length;
+        let charge = i0 * length + 0.5 * r * length * length;
+        out.charge += charge;
         out.current_squared +=
             i0 * i0 * length + i0 * r * length * length + r * r * length.powi(3) / 3.0;
         out.ramp_time += length;
+        if let Some(mu) = walk.mu {
+            let (l2, l3) = (length * length, length * length * length);
+            out.time_moment += s0 * charge + 0.5 * i0 * l2 + r * l3 / 3.0;
+            out.decay_moment +=
+                (-mu * s0).exp() * (i0 * decay_integral(mu, length) + r * decay_moment(mu, length));
+        }
     }
 
     /// Tracking segment [start, s1] of a step whose modal deviations were δ1, δ2 at τ = 0;
@@ -691,7 +742,7 @@ impl CurrentDynamics {
     #[allow(clippy::too_many_arguments)]
     fn add_track(
         &self,
-        out: &mut CurrentIntegrals,
+        walk: &mut RunningMinimum,
         curve: &Curve,
         dev1: f64,
         dev2: f64,
@@ -706,16 +757,67 @@ impl CurrentDynamics {
             self.decay(length)
         };
         let y = curve.y + curve.s * start.t;
-        let (charge, squared) = self.track_integrals(
-            y,
-            curve.s,
-            dev1 * start.e1,
-            dev2 * start.e2,
-            length,
-            &segment,
-        );
+        let (d1, d2) = (dev1 * start.e1, dev2 * start.e2);
+        let (charge, squared) = self.track_integrals(y, curve.s, d1, d2, length, &segment);
+        let out = &mut walk.out;
         out.charge += charge;
         out.current_squared += squared;
+        if let Some(mu) = walk.mu {
+            self.add_track_moments(
+                out, y, curve.s, d1, d2, start.t, charge, length, &segment, mu,
+            );
+        }
+    }
+
+    /// The moments of a tracking segment that starts `t0` [s] into the step, on which
+    /// I(σ) = y + sσ + A e^(−λ1 σ) + B e^(−λ2 σ) (A = a δ1, B = b δ2, σ = τ − t0) and
+    /// ∫I = `charge`:
+    ///   ∫τ·I = t0·∫I + y L²/2 + s L³/3 + A·J(λ1) + B·J(λ2),
+    ///   ∫e^(−μτ)·I = e^(−μ t0)·(y E(μ) + s J(μ) + A E(λ1 + μ) + B E(λ2 + μ)),
+    /// with E(κ) = ∫₀ᴸ e^(−κσ) dσ and J(κ) = ∫₀ᴸ σ e^(−κσ) dσ.
+    #[allow(clippy::too_many_arguments)]
+    fn add_track_moments(
+        &self,
+        out: &mut CurrentIntegrals,
+        y: f64,
+        s: f64,
+        dev1: f64,
+        dev2: f64,
+        t0: f64,
+        charge: f64,
+        length: f64,
+        decay: &Decay,
+        mu: f64,
+    ) {
+        let (big_a, big_b) = (self.a * dev1, self.b * dev2);
+        let (l2, l3) = (length * length, length * length * length);
+        let j1 = self.tau1 * self.tau1 * ramp_moment(self.lambda1 * length, decay.e1);
+        let j2 = self.tau2 * self.tau2 * ramp_moment(self.lambda2 * length, decay.e2);
+        out.time_moment += t0 * charge + 0.5 * y * l2 + s * l3 / 3.0 + big_a * j1 + big_b * j2;
+        out.decay_moment += (-mu * t0).exp()
+            * (y * decay_integral(mu, length)
+                + s * decay_moment(mu, length)
+                + big_a * decay_integral(self.lambda1 + mu, length)
+                + big_b * decay_integral(self.lambda2 + mu, length));
+    }
+}
+
+/// E(κ) = ∫₀ᴸ e^(−κσ) dσ = (1 − e^(−κL))/κ [s] for κ ≥ 0 (L at κ = 0).
+fn decay_integral(kappa: f64, length: f64) -> f64 {
+    if kappa == 0.0 {
+        length
+    } else {
+        -(-kappa * length).exp_m1() / kappa
+    }
+}
+
+/// J(κ) = ∫₀ᴸ σ e^(−κσ) dσ = (1 − (1 + κL) e^(−κL))/κ² [s²] for κ ≥ 0 (L²/2 at κ = 0).
+fn decay_moment(kappa: f64, length: f64) -> f64 {
+    if kappa == 0.0 {
+        0.5 * length * length
+    } else {
+        let x = kappa * length;
+        ramp_moment(x, (-x).exp()) / (kappa * kappa)
     }
 }
 
@@ -740,6 +842,8 @@ fn ramp_moment(x: f64, e: f64) -> f64 {
 struct RunningMinimum {
     m: f64,
     out: CurrentIntegrals,
+    /// The rate μ [1/s] of the moments to accumulate, if any.
+    mu: Option<f64>,
 }
 
 /// A time τ in the step with both mode decays e^(−λi τ), evaluated once.
@@ -1064,5 +1168,92 @@ mod tests {
         let (_, q) = simulate(&d, 60.0, 100.0, 10.0, 10.0);
         let want = p.gain * 60.0 * 10.0 + 0.5 * p.ramp_up_limit * 100.0;
         assert!((q - want).abs() < 1e-9, "{q} vs {want}");
+    }
+
+    /// Moments over [0, h] summed from pieces of length `piece`: each piece's moments about
+    /// its own start, moved to the step's start (τ = t + σ: ∫τI = t·∫I + ∫σI, ∫e^(−μτ)I =
+    /// e^(−μt)·∫e^(−μσ)I).
+    fn moments_in_pieces(
+        d: &CurrentDynamics,
+        u: impl Fn(f64) -> f64,
+        h: f64,
+        piece: f64,
+        mu: f64,
+    ) -> (f64, f64, f64) {
+        let mut state = d.steady_state(60.0);
+        let (mut charge, mut time, mut decay) = (0.0, 0.0, 0.0);
+        let n = (h / piece).round() as usize;
+        for k in 0..n {
+            let t = k as f64 * piece;
+            let ints = d.advance_with_moments(&mut state, u(t), piece, mu);
+            time += t * ints.charge + ints.time_moment;
+            decay += (-mu * t).exp() * ints.decay_moment;
+            charge += ints.charge;
+        }
+        (charge, time, decay)
+    }
+
+    #[test]
+    fn moments_of_a_steady_current_are_the_closed_forms() {
+        let (p, d) = paper();
+        let mut state = d.steady_state(80.0);
+        let (h, mu) = (900.0, 1.0 / 3600.0);
+        let ints = d.advance_with_moments(&mut state, 80.0, h, mu);
+        let i = p.gain * 80.0;
+        assert!((ints.time_moment - i * h * h / 2.0).abs() < 1e-9 * i * h * h);
+        let want = i * (1.0 - (-mu * h).exp()) / mu;
+        assert!((ints.decay_moment - want).abs() < 1e-12 * want);
+        // The plain step's integrals are unchanged by asking for moments.
+        let mut plain = d.steady_state(80.0);
+        let without = d.advance(&mut plain, 80.0, h, &mut StepFactors::default());
+        assert_eq!(ints.charge, without.charge);
+        assert_eq!(plain, state);
+    }
+
+    #[test]
+    fn moments_do_not_depend_on_the_step_size_through_ramps_and_falls() {
+        let (_, d) = paper();
+        // Up 60 → 100 % (the ramp limit binds, then the current tracks), down at 300 s.
+        let u = |t: f64| if t < 300.0 { 100.0 } else { 65.0 };
+        let mu = 1.0 / 500.0;
+        let whole = moments_in_pieces(&d, u, 600.0, 300.0, mu);
+        for piece in [0.5, 7.5, 60.0] {
+            let cut = moments_in_pieces(&d, u, 600.0, piece, mu);
+            for (a, b) in [(whole.0, cut.0), (whole.1, cut.1), (whole.2, cut.2)] {
+                assert!((a - b).abs() <= 1e-10 * a.abs(), "{piece}: {a} vs {b}");
+            }
+        }
+        // Against the trapezoid rule on the current sampled every 1 ms.
+        let mut state = d.steady_state(60.0);
+        let (mut time, mut decay, mut last) = (0.0, 0.0, state.current);
+        let dt = 1e-3;
+        for k in 1..=600_000 {
+            let t = k as f64 * dt;
+            d.advance(&mut state, u(t - dt), dt, &mut StepFactors::default());
+            let (t0, i0, i1) = (t - dt, last, state.current);
+            time += 0.5 * dt * (t0 * i0 + t * i1);
+            decay += 0.5 * dt * ((-mu * t0).exp() * i0 + (-mu * t).exp() * i1);
+            last = i1;
+        }
+        assert!((whole.1 - time).abs() < 1e-7 * time, "{} vs {time}", whole.1);
+        assert!((whole.2 - decay).abs() < 1e-7 * decay, "{} vs {decay}", whole.2);
+    }
+
+    #[test]
+    fn moments_of_an_interpolated_input_add_up_over_pieces() {
+        let (_, d) = paper();
+        let mu = 1.0 / 2000.0;
+        let mut whole_state = d.steady_state(60.0);
+        let whole = d.advance_linear_with_moments(&mut whole_state, 60.0, 0.05, 400.0, mu);
+        let mut state = d.steady_state(60.0);
+        let (mut time, mut decay) = (0.0, 0.0);
+        for k in 0..40 {
+            let t = 10.0 * k as f64;
+            let ints = d.advance_linear_with_moments(&mut state, 60.0 + 0.05 * t, 0.05, 10.0, mu);
+            time += t * ints.charge + ints.time_moment;
+            decay += (-mu * t).exp() * ints.decay_moment;
+        }
+        assert!((whole.time_moment - time).abs() < 1e-10 * time);
+        assert!((whole.decay_moment - decay).abs() < 1e-10 * decay);
     }
 }

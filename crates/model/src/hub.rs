@@ -290,11 +290,12 @@ impl Hub {
             power_range,
             order: Vec::new(),
             lanes: None,
-            // The lanes step the plain dynamics only, without the stack temperature, and share
-            // a power reference by the stack's curve.
+            // The lanes step the plain dynamics only, without the stack temperature or a drift,
+            // and share a power reference by the stack's curve.
             lanes_enabled: !config.compensation
                 && config.thermal.is_none()
-                && !config.operation.grid.grid_side_reference,
+                && !config.operation.grid.grid_side_reference
+                && !config.operation.ageing.is_on(),
             aligned: false,
             partials: Vec::new(),
             surveyed: None,
@@ -307,6 +308,7 @@ impl Hub {
             .map_or(super::operation::CURVE_TEMPERATURE, |t| {
                 t.initial_temperature
             });
+        let drift = config.operation.ageing.initial();
         let mut active_left = n;
         for kind in 0..hub.types.len() {
             let per_type_count = hub.types[kind].count;
@@ -316,7 +318,8 @@ impl Hub {
             let ty = &hub.types[kind];
             if on > 0 {
                 let unit = UnitState::steady(&ty.params, &ty.dynamics, u)
-                    .at_temperature(start_temperature);
+                    .at_temperature(start_temperature)
+                    .with_drift(drift);
                 hub.groups.push(Group {
                     count: on,
                     kind: kind as u32,
@@ -327,7 +330,9 @@ impl Hub {
                 });
             }
             if per_type_count > on {
-                let unit = UnitState::idle().at_temperature(start_temperature);
+                let unit = UnitState::idle()
+                    .at_temperature(start_temperature)
+                    .with_drift(drift);
                 hub.groups.push(Group {
                     count: per_type_count - on,
                     kind: kind as u32,
@@ -835,7 +840,7 @@ pub struct HubReadings {
     pub current: f64,
     /// Sum of squared stack currents ΣI² [A²].
     pub current_squared: f64,
-    /// Mean stack voltage V0 + R·I over Steady modules [V]; 0 when none is Steady.
+    /// Mean stack voltage V0 + R·I (+ drift) over Steady modules [V]; 0 when none is Steady.
     pub voltage: f64,
     /// Mean stack temperature over the modules [K] (the thermal model's; Tn without it).
     pub temperature: f64,
@@ -843,6 +848,9 @@ pub struct HubReadings {
     pub cooling_power: f64,
     /// Modules in each operating state, indexed by [`OperatingState::code`].
     pub counts: [u32; 5],
+    /// The voltage's drift, mean over the modules and the largest [V] (0 without ageing).
+    pub voltage_drift: f64,
+    pub max_voltage_drift: f64,
 }
 
 impl Hub {
@@ -870,12 +878,24 @@ impl Hub {
                     kinds,
                 });
             }
-            if ![u.timer, c.current, c.z1, c.z2, g.running, u.temperature]
-                .iter()
-                .all(|x| x.is_finite())
+            let d = &u.drift;
+            if ![
+                u.timer,
+                c.current,
+                c.z1,
+                c.z2,
+                g.running,
+                u.temperature,
+                d.irreversible,
+                d.reversible,
+            ]
+            .iter()
+            .all(|x| x.is_finite())
                 || u.timer < 0.0
                 || g.running < 0.0
                 || u.temperature <= 0.0
+                || d.irreversible < 0.0
+                || d.reversible < 0.0
             {
                 return Err(SnapshotError::NonFiniteGroup);
             }
@@ -921,7 +941,16 @@ impl Hub {
 
     /// All outputs in one pass over the groups.
     pub fn readings(&self) -> HubReadings {
-        self.read.unwrap_or_else(|| self.summed().1.readings())
+        let mut readings = self.read.unwrap_or_else(|| self.summed().1.readings());
+        if self.config.operation.ageing.is_on() {
+            let (sum, max) = self.groups.iter().fold((0.0, 0.0), |(sum, max): (f64, f64), g| {
+                let d = g.unit.drift.total();
+                (sum + g.count as f64 * d, max.max(d))
+            });
+            readings.voltage_drift = sum / self.config.n_modules as f64;
+            readings.max_voltage_drift = max;
+        }
+        readings
     }
 }
 
@@ -995,6 +1024,8 @@ fn identity_order(a: &Group, b: &Group) -> Ordering {
         .then(a.unit.current.z1.total_cmp(&b.unit.current.z1))
         .then(a.unit.current.z2.total_cmp(&b.unit.current.z2))
         .then(a.unit.temperature.total_cmp(&b.unit.temperature))
+        .then(a.unit.drift.irreversible.total_cmp(&b.unit.drift.irreversible))
+        .then(a.unit.drift.reversible.total_cmp(&b.unit.drift.reversible))
         .then(a.running.total_cmp(&b.running))
         .then(a.starts.cmp(&b.starts))
 }

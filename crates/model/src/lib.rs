@@ -24,6 +24,7 @@
 // `!(x > 0.0)` is used on purpose: it is true for NaN, which must be refused too.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod ageing;
 mod current_path;
 pub mod dispatch;
 pub mod dynamics;
@@ -43,6 +44,7 @@ mod snapshot_error;
 pub mod spread;
 pub mod thermal;
 
+pub use ageing::{AgeingParameters, Drift};
 pub use dispatch::{Demand, DispatchPolicy};
 pub use dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
 pub use events::{EventState, PlantEvent};

@@ -11,9 +11,14 @@
 //! With the stack temperature on ([`Module::with_thermal`]) the voltage is
 //! V = V0 + kV·(T − Tn) + (R + kR·(T − Tn))·I, so the energy gains
 //! kV·∫(T − Tn)·I dt + kR·∫(T − Tn)·I² dt from the temperature's step ([`crate::thermal`]).
+//!
+//! With ageing ([`Module::with_ageing`]) the voltage drifts, V + d(t), and the energy gains
+//! ∫d·I dt from the current's moments ([`crate::ageing`]); the module never stops, so its
+//! reversible drift only builds up.
 
 use std::fmt;
 
+use super::ageing::{AgeingParameters, Drift, DriftChange};
 use super::current_path::{HeldSetpoint, LinearSetpoint};
 use super::dynamics::{CurrentDynamics, CurrentIntegrals, CurrentState, StepFactors};
 use super::grid::{CurrentSums, GridParameters};
@@ -40,6 +45,8 @@ pub struct ModuleState {
     /// Charge ∫I dt [A·s] and ∫I² dt [A²·s] since the start (for the supply's losses).
     pub charge: f64,
     pub current_squared: f64,
+    /// The voltage's drift [V] (zero without ageing).
+    pub drift: Drift,
 }
 
 /// A request the model refuses; the module is left unchanged.
@@ -109,6 +116,8 @@ pub struct Module {
     thermal: Option<HeatBalance>,
     /// The supply's losses and the auxiliaries.
     grid: GridParameters,
+    /// How the voltage drifts with use.
+    ageing: AgeingParameters,
 }
 
 impl Module {
@@ -135,12 +144,53 @@ impl Module {
                 temperature: ThermalParameters::default().nominal_temperature,
                 charge: 0.0,
                 current_squared: 0.0,
+                drift: Drift::default(),
             },
             factors: StepFactors::default(),
             h2_per_coulomb: params.h2_coefficient / SECONDS_PER_HOUR,
             thermal: None,
             grid: GridParameters::default(),
+            ageing: AgeingParameters::default(),
         })
+    }
+
+    /// The same module whose voltage drifts with use as `ageing` says, from its initial drift.
+    pub fn with_ageing(self, ageing: AgeingParameters) -> Result<Self, ParameterError> {
+        ageing.validate()?;
+        let mut module = Module { ageing, ..self };
+        module.state.drift = ageing.initial();
+        Ok(module)
+    }
+
+    /// How the drift moves over a running piece from `drift` (none without ageing).
+    fn drift_change(&self, drift: Drift) -> DriftChange {
+        if self.ageing.is_on() {
+            self.ageing.change_while_running(drift)
+        } else {
+            DriftChange::NONE
+        }
+    }
+
+    /// The current over a piece of `h` [s] at setpoint `u` held (`slope` 0) or rising at
+    /// `slope` [%/s], with the moments the drift's energy needs where `change` moves.
+    fn advance_piece(
+        &mut self,
+        current: &mut CurrentState,
+        u: f64,
+        slope: f64,
+        h: f64,
+        change: &DriftChange,
+    ) -> CurrentIntegrals {
+        match (slope == 0.0, change.varies()) {
+            (true, false) => self.dynamics.advance(current, u, h, &mut self.factors),
+            (true, true) => self
+                .dynamics
+                .advance_with_moments(current, u, h, change.rate),
+            (false, false) => self.dynamics.advance_linear(current, u, slope, h),
+            (false, true) => self
+                .dynamics
+                .advance_linear_with_moments(current, u, slope, h, change.rate),
+        }
     }
 
     /// The same module with the supply's losses and the auxiliaries `grid` (what
@@ -194,12 +244,16 @@ impl Module {
     fn thermal_step(
         &self,
         temperature: f64,
+        drift: Drift,
         path: &impl CurrentPath,
         h: f64,
     ) -> Result<Option<ThermalStep>, StepError> {
         match &self.thermal {
             None => Ok(None),
-            Some(balance) => Ok(Some(thermal_step::advance(balance, temperature, path, h)?)),
+            Some(balance) => {
+                let balance = balance.drifted(drift.total());
+                Ok(Some(thermal_step::advance(&balance, temperature, path, h)?))
+            }
         }
     }
 
@@ -214,17 +268,22 @@ impl Module {
         }
         let u = self.params.clamp_setpoint(setpoint);
         let mut current = self.state.current;
+        let drift = self.state.drift;
+        let change = self.drift_change(drift);
         let heat = self.thermal_step(
             self.state.temperature,
+            drift,
             &HeldSetpoint {
                 dynamics: &self.dynamics,
                 start: current,
                 setpoint: u,
+                drift: change,
             },
             h,
         )?;
-        let ints = self.dynamics.advance(&mut current, u, h, &mut self.factors);
-        self.commit(current, ints, heat.as_ref(), h)?;
+        let ints = self.advance_piece(&mut current, u, 0.0, h, &change);
+        let drift_energy = self.drift_energy(drift, &ints);
+        self.commit(current, ints, drift_energy, heat.as_ref(), h)?;
         Ok(StepReport {
             applied_setpoint: u,
             ramp_time: ints.ramp_time,
@@ -268,6 +327,7 @@ impl Module {
         cuts[n] = h;
         let mut current = self.state.current;
         let (mut charge, mut current_squared, mut ramp_time) = (0.0, 0.0, 0.0);
+        let mut drift_energy = 0.0;
         let mut heat: Option<ThermalStep> = None;
         for w in cuts[..=n].windows(2) {
             let (t0, t1) = (w[0], w[1]);
@@ -276,6 +336,12 @@ impl Module {
             }
             let middle = setpoint + slope * 0.5 * (t0 + t1);
             let temperature = heat.map_or(self.state.temperature, |q| q.temperature);
+            let drift = if self.ageing.is_on() {
+                self.ageing.after_running(self.state.drift, t0)
+            } else {
+                self.state.drift
+            };
+            let change = self.drift_change(drift);
             let ints = if middle > lo && middle < hi {
                 let u0 = self.params.clamp_setpoint(setpoint + slope * t0);
                 let path = LinearSetpoint {
@@ -283,26 +349,27 @@ impl Module {
                     start: current,
                     setpoint: u0,
                     slope,
+                    drift: change,
                 };
-                let piece = self.thermal_step(temperature, &path, t1 - t0)?;
+                let piece = self.thermal_step(temperature, drift, &path, t1 - t0)?;
                 heat = summed(heat, piece);
-                self.dynamics
-                    .advance_linear(&mut current, u0, slope, t1 - t0)
+                self.advance_piece(&mut current, u0, slope, t1 - t0, &change)
             } else {
                 let u = self.params.clamp_setpoint(middle);
                 let path = HeldSetpoint {
                     dynamics: &self.dynamics,
                     start: current,
                     setpoint: u,
+                    drift: change,
                 };
-                let piece = self.thermal_step(temperature, &path, t1 - t0)?;
+                let piece = self.thermal_step(temperature, drift, &path, t1 - t0)?;
                 heat = summed(heat, piece);
-                self.dynamics
-                    .advance(&mut current, u, t1 - t0, &mut self.factors)
+                self.advance_piece(&mut current, u, 0.0, t1 - t0, &change)
             };
             charge += ints.charge;
             current_squared += ints.current_squared;
             ramp_time += ints.ramp_time;
+            drift_energy += self.drift_energy(drift, &ints);
         }
         self.commit(
             current,
@@ -310,7 +377,9 @@ impl Module {
                 charge,
                 current_squared,
                 ramp_time,
+                ..CurrentIntegrals::default()
             },
+            drift_energy,
             heat.as_ref(),
             h,
         )?;
@@ -320,12 +389,22 @@ impl Module {
         })
     }
 
-    /// Adds a step's integrals to the totals and takes its end state, unless a total would
-    /// overflow (then nothing changes).
+    /// ∫d·I dt [J] over a piece from `drift` with integrals `ints` (0 without ageing).
+    fn drift_energy(&self, drift: Drift, ints: &CurrentIntegrals) -> f64 {
+        if self.ageing.is_on() {
+            self.ageing.energy(drift, ints)
+        } else {
+            0.0
+        }
+    }
+
+    /// Adds a step's integrals (and the drift's energy `drift_energy` [J]) to the totals and
+    /// takes its end state, unless a total would overflow (then nothing changes).
     fn commit(
         &mut self,
         current: CurrentState,
         ints: CurrentIntegrals,
+        drift_energy: f64,
         heat: Option<&ThermalStep>,
         h: f64,
     ) -> Result<(), StepError> {
@@ -333,6 +412,11 @@ impl Module {
         let mut energy = self.state.energy
             + p.voltage_intercept * ints.charge
             + p.ohmic_resistance * ints.current_squared;
+        let mut drift = self.state.drift;
+        if self.ageing.is_on() {
+            energy += drift_energy;
+            drift = self.ageing.after_running(drift, h);
+        }
         let mut temperature = self.state.temperature;
         if let (Some(q), Some(balance)) = (heat, &self.thermal) {
             let t = &balance.thermal;
@@ -357,6 +441,7 @@ impl Module {
             temperature,
             charge,
             current_squared,
+            drift,
         };
         Ok(())
     }
@@ -387,12 +472,18 @@ impl Module {
     }
 
     /// Stack voltage V = V0 + R·I [V]; with the thermal model
-    /// V = V0 + kV·(T − Tn) + (R + kR·(T − Tn))·I.
+    /// V = V0 + kV·(T − Tn) + (R + kR·(T − Tn))·I; plus the drift d with ageing.
     pub fn voltage(&self) -> f64 {
-        match &self.thermal {
+        let curve = match &self.thermal {
             None => self.params.voltage_intercept + self.params.ohmic_resistance * self.current(),
             Some(balance) => balance.voltage(self.state.temperature, self.current()),
-        }
+        };
+        curve + self.state.drift.total()
+    }
+
+    /// The voltage's drift d [V] (0 without ageing).
+    pub fn voltage_drift(&self) -> f64 {
+        self.state.drift.total()
     }
 
     /// Stack temperature T [K] (Tn without the thermal model).
@@ -403,7 +494,9 @@ impl Module {
     /// Heat the cooling removes now, Qc [W] (0 without the thermal model).
     pub fn cooling_power(&self) -> f64 {
         self.thermal.as_ref().map_or(0.0, |balance| {
-            balance.cooling_power(self.state.temperature, self.current())
+            balance
+                .drifted(self.state.drift.total())
+                .cooling_power(self.state.temperature, self.current())
         })
     }
 

@@ -32,6 +32,7 @@
 
 use std::fmt;
 
+use super::ageing::{AgeingParameters, Drift, DriftChange};
 use super::current_path::{HeldSetpoint, NoCurrent};
 use super::dynamics::{CurrentDynamics, CurrentState, StepFactors};
 use super::grid::GridParameters;
@@ -117,6 +118,8 @@ pub struct OperationParameters {
     pub below_minimum: BelowMinimum,
     /// The supply's losses and the auxiliaries (zero by default: the grid sees P).
     pub grid: GridParameters,
+    /// The voltage's drift with use (none by default).
+    pub ageing: AgeingParameters,
 }
 
 impl Default for OperationParameters {
@@ -130,6 +133,7 @@ impl Default for OperationParameters {
             stop_duration: 60.0,
             below_minimum: BelowMinimum::Minimum,
             grid: GridParameters::default(),
+            ageing: AgeingParameters::default(),
         }
     }
 }
@@ -160,7 +164,8 @@ impl OperationParameters {
                 requirement: format!("must not exceed coldStartTime = {} s", self.cold_start_time),
             });
         }
-        self.grid.validate()
+        self.grid.validate()?;
+        self.ageing.validate()
     }
 }
 
@@ -184,6 +189,8 @@ pub struct UnitState {
     pub current: CurrentState,
     /// Stack temperature [K] (the polarisation curve's, Tn, without the thermal model).
     pub temperature: f64,
+    /// The voltage's drift [V] (zero without ageing).
+    pub drift: Drift,
 }
 
 /// What one module did during a step (per module; a group multiplies by its count).
@@ -225,6 +232,7 @@ impl UnitState {
             timer: 0.0,
             current: ZERO_CURRENT,
             temperature: CURVE_TEMPERATURE,
+            drift: Drift::default(),
         }
     }
 
@@ -235,6 +243,7 @@ impl UnitState {
             timer: 0.0,
             current: dynamics.steady_state(params.clamp_setpoint(setpoint)),
             temperature: CURVE_TEMPERATURE,
+            drift: Drift::default(),
         }
     }
 
@@ -246,9 +255,14 @@ impl UnitState {
         }
     }
 
-    /// Moves to `next`, keeping the stack temperature.
+    /// The same state with the voltage drifted by `drift`.
+    pub fn with_drift(self, drift: Drift) -> Self {
+        UnitState { drift, ..self }
+    }
+
+    /// Moves to `next`, keeping the stack temperature and the drift.
     fn enter(&mut self, next: UnitState) {
-        *self = next.at_temperature(self.temperature);
+        *self = next.at_temperature(self.temperature).with_drift(self.drift);
     }
 
     /// Stack current [A].
@@ -256,13 +270,15 @@ impl UnitState {
         self.current.current
     }
 
-    /// Stack voltage of a Steady module [V]: V0 + R·I, or the temperature's with `thermal`.
+    /// Stack voltage of a Steady module [V]: V0 + R·I, or the temperature's with `thermal`,
+    /// plus the drift.
     pub fn voltage(&self, params: &Parameters, thermal: Option<&HeatBalance>) -> f64 {
         let i = self.current.current;
-        match thermal {
+        let curve = match thermal {
             None => params.voltage_intercept + params.ohmic_resistance * i,
             Some(balance) => balance.voltage(self.temperature, i),
-        }
+        };
+        curve + self.drift.total()
     }
 
     /// Electric power now [W]: V·I when Steady (V as [`Self::voltage`]), else the state's
@@ -312,7 +328,8 @@ impl UnitState {
         loop {
             match (self.state, command) {
                 (Steady, Run(u)) => {
-                    self.run(params, dynamics, factors, thermal, u, left, h, &mut totals);
+                    let ageing = &op.ageing;
+                    self.run(params, dynamics, factors, thermal, ageing, u, left, h, &mut totals);
                     return totals;
                 }
                 (Steady, Stop) => match op.below_minimum {
@@ -322,6 +339,7 @@ impl UnitState {
                             dynamics,
                             factors,
                             thermal,
+                            &op.ageing,
                             params.min_setpoint,
                             left,
                             h,
@@ -333,7 +351,7 @@ impl UnitState {
                     BelowMinimum::Off => self.enter(timed(Blowdown, op.stop_duration)),
                 },
                 (Idle, Stop) => {
-                    self.cool(thermal, left, &mut totals);
+                    self.cool(thermal, &op.ageing, left, &mut totals);
                     return totals;
                 }
                 (Idle | Standby, Run(_)) => {
@@ -348,13 +366,14 @@ impl UnitState {
                         op.cold_start_time
                     };
                     self.enter(timed(Curve, duration));
+                    self.drift = op.ageing.after_start(self.drift);
                     totals.starts += 1;
                     totals.warm_starts += u32::from(warm);
                 }
                 (Curve, Stop) => self.enter(UnitState::idle()),
                 (Curve, Run(_)) => {
                     let before = left;
-                    let done = self.wait(op.start_power, thermal, false, &mut left, &mut totals);
+                    let done = self.wait(op, op.start_power, thermal, false, &mut left, &mut totals);
                     totals.starting += before - left;
                     if done {
                         return totals;
@@ -364,7 +383,7 @@ impl UnitState {
                 }
                 (Standby, Stop) | (Blowdown, _) => {
                     let heated = self.state == Standby;
-                    if self.wait(op.standby_power, thermal, heated, &mut left, &mut totals) {
+                    if self.wait(op, op.standby_power, thermal, heated, &mut left, &mut totals) {
                         return totals;
                     }
                     self.enter(UnitState::idle());
@@ -386,13 +405,13 @@ impl UnitState {
         let mut totals = UnitTotals::default();
         match self.state {
             OperatingState::Idle => {
-                self.cool(thermal, h, &mut totals);
+                self.cool(thermal, &op.ageing, h, &mut totals);
                 Some(totals)
             }
             OperatingState::Standby | OperatingState::Blowdown if self.timer > h => {
                 let mut left = h;
                 let heated = self.state == OperatingState::Standby;
-                self.wait(op.standby_power, thermal, heated, &mut left, &mut totals);
+                self.wait(op, op.standby_power, thermal, heated, &mut left, &mut totals);
                 Some(totals)
             }
             _ => None,
@@ -400,7 +419,8 @@ impl UnitState {
     }
 
     /// Steady for `length` seconds at setpoint `u` (clamped); reuses the step factors when the
-    /// piece is the whole step.
+    /// piece is the whole step. With a drift that moves, the current's moments give its energy
+    /// exactly ([`AgeingParameters::energy`]).
     #[allow(clippy::too_many_arguments)]
     #[inline]
     fn run(
@@ -409,6 +429,7 @@ impl UnitState {
         dynamics: &CurrentDynamics,
         factors: &mut StepFactors,
         thermal: Option<&HeatBalance>,
+        ageing: &AgeingParameters,
         u: f64,
         length: f64,
         h: f64,
@@ -418,21 +439,34 @@ impl UnitState {
             return;
         }
         let u = params.clamp_setpoint(u);
+        let moving = ageing.is_on() && ageing.moves_while_running(self.drift);
+        let change = if moving {
+            ageing.change_while_running(self.drift)
+        } else {
+            DriftChange::NONE
+        };
         if let Some(balance) = thermal {
             let path = HeldSetpoint {
                 dynamics,
                 start: self.current,
                 setpoint: u,
+                drift: change,
             };
-            self.heat(balance, &path, length, totals);
+            self.heat(&balance.drifted(self.drift.total()), &path, length, totals);
         }
-        let ints = if length == h {
+        let ints = if moving {
+            dynamics.advance_with_moments(&mut self.current, u, length, ageing.build_up_rate())
+        } else if length == h {
             dynamics.advance(&mut self.current, u, length, factors)
         } else {
             dynamics.advance(&mut self.current, u, length, &mut StepFactors::default())
         };
         totals.energy +=
             params.voltage_intercept * ints.charge + params.ohmic_resistance * ints.current_squared;
+        if ageing.is_on() {
+            totals.energy += ageing.energy(self.drift, &ints);
+            self.drift = ageing.after_running(self.drift, length);
+        }
         totals.charge += ints.charge;
         totals.current_squared += ints.current_squared;
         totals.running += length;
@@ -445,6 +479,7 @@ impl UnitState {
     #[inline]
     fn wait(
         &mut self,
+        op: &OperationParameters,
         power: f64,
         thermal: Option<&HeatBalance>,
         heated: bool,
@@ -460,13 +495,13 @@ impl UnitState {
             other => other,
         };
         if self.timer > *left {
-            self.cool(thermal, *left, totals);
+            self.cool(thermal, &op.ageing, *left, totals);
             self.timer -= *left;
             totals.energy += power * *left;
             *left = 0.0;
             true
         } else {
-            self.cool(thermal, self.timer, totals);
+            self.cool(thermal, &op.ageing, self.timer, totals);
             totals.energy += power * self.timer;
             *left -= self.timer;
             self.timer = 0.0;
@@ -474,9 +509,19 @@ impl UnitState {
         }
     }
 
-    /// `length` [s] without stack current: the stack cools in closed form (with `thermal`).
+    /// `length` [s] without stack current: the stack cools in closed form (with `thermal`), the
+    /// reversible drift recovers.
     #[inline]
-    fn cool(&mut self, thermal: Option<&HeatBalance>, length: f64, totals: &mut UnitTotals) {
+    fn cool(
+        &mut self,
+        thermal: Option<&HeatBalance>,
+        ageing: &AgeingParameters,
+        length: f64,
+        totals: &mut UnitTotals,
+    ) {
+        if ageing.is_on() {
+            self.drift = ageing.after_rest(self.drift, length);
+        }
         if let Some(balance) = thermal {
             if length > 0.0 {
                 self.heat(balance, &NoCurrent, length, totals);
@@ -518,6 +563,7 @@ fn timed(state: OperatingState, duration: f64) -> UnitState {
         timer: duration,
         current: ZERO_CURRENT,
         temperature: CURVE_TEMPERATURE,
+        drift: Drift::default(),
     }
 }
 

@@ -17,6 +17,7 @@
 //! F = F_hub/N [Nl/h], E = E_hub/N [J], H = H_hub/N [Nl]; V is the mean of V0 + R·I over
 //! the modules carrying current [V] (0 when none does).
 
+use super::ageing::AgeingParameters;
 use super::dispatch::{Demand, DispatchPolicy, PowerCurve};
 use super::grid::{CurrentSums, GridParameters};
 use super::hub::{Hub, HubConfig, HubReadings, HubSnapshot, H2_KG_PER_NL};
@@ -70,6 +71,8 @@ pub struct PlantSettings {
     pub thermal: ThermalParameters,
     /// The supply's losses, the auxiliaries, and the side a power reference means.
     pub grid: GridParameters,
+    /// How the voltage drifts with use (none by default).
+    pub ageing: AgeingParameters,
 }
 
 impl Default for PlantSettings {
@@ -95,6 +98,7 @@ impl Default for PlantSettings {
             thermal_model: false,
             thermal: ThermalParameters::default(),
             grid: GridParameters::default(),
+            ageing: AgeingParameters::default(),
         }
     }
 }
@@ -154,6 +158,7 @@ impl PlantSettings {
                 stop_duration: self.stop_duration,
                 below_minimum: BelowMinimum::from_code(self.below_minimum as i64)?,
                 grid: self.grid,
+                ageing: self.ageing,
             },
             compensation: self.reserve.compensation,
             thermal: None,
@@ -252,14 +257,19 @@ impl Plant {
         if let (Some(thermal), true, None) =
             (config.thermal, config.is_single_module(), module_sets)
         {
+            let op = &config.hub.operation;
             return Ok(Plant::Module(
                 Module::with_thermal(params, thermal, AMBIENT_START, setpoint)?
-                    .with_grid(config.hub.operation.grid),
+                    .with_grid(op.grid)
+                    .with_ageing(op.ageing)?,
             ));
         }
         if config.is_single_module() && module_sets.is_none() {
+            let op = &config.hub.operation;
             return Ok(Plant::Module(
-                Module::new(params, setpoint)?.with_grid(config.hub.operation.grid),
+                Module::new(params, setpoint)?
+                    .with_grid(op.grid)
+                    .with_ageing(op.ageing)?,
             ));
         }
         let demand = config.demand(setpoint, power_reference);

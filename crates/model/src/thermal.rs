@@ -221,6 +221,14 @@ impl HeatBalance {
             - (p.cooling_setpoint - self.ambient) / p.thermal_resistance
     }
 
+    /// The same balance with the voltage drifted by `drift` [V]: V0 + d.
+    pub fn drifted(&self, drift: f64) -> HeatBalance {
+        HeatBalance {
+            voltage_intercept: self.voltage_intercept + drift,
+            ..*self
+        }
+    }
+
     /// The same balance in standby: the heater (`standbyHeaterPower`) on the thermostat.
     pub fn in_standby(&self) -> HeatBalance {
         HeatBalance {

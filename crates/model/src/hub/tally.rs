@@ -94,7 +94,8 @@ impl Tally {
         let c = g.count as f64;
         if let Some(balance) = thermal {
             self.temperature[k] += c * g.unit.temperature;
-            self.cooling[k] += c * balance.cooling_power(g.unit.temperature, i);
+            let drifted = balance.drifted(g.unit.drift.total());
+            self.cooling[k] += c * drifted.cooling_power(g.unit.temperature, i);
         }
         let grid = &op.grid;
         if g.unit.state == Steady {
@@ -325,6 +326,8 @@ impl ReadingSums {
             },
             cooling_power: self.cooling,
             counts: self.counts,
+            voltage_drift: 0.0,
+            max_voltage_drift: 0.0,
         }
     }
 }

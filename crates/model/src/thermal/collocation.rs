@@ -119,8 +119,9 @@ where
     let mut a_diag = SVector::<f64, S>::zeros();
     let mut b = SVector::<f64, S>::zeros();
     for j in 0..S {
-        let i = path.current(start + rule.c[j] * h);
-        let (alpha, beta) = balance.linear(i, regime);
+        let tau = start + rule.c[j] * h;
+        let i = path.current(tau);
+        let (alpha, beta) = balance.drifted(path.drift(tau)).linear(i, regime);
         current[j] = i;
         a_diag[j] = alpha / c;
         b[j] = beta / c;

@@ -17,6 +17,18 @@ pub trait CurrentPath {
     fn envelope(&self, _h: f64) -> Option<Envelope> {
         None
     }
+    /// How much the voltage has drifted since the start of the step, Δd(τ) [V] (ageing).
+    fn drift(&self, _tau: f64) -> f64 {
+        0.0
+    }
+    /// The smallest and largest Δd over a step of `h` [s] [V].
+    fn drift_bounds(&self, _h: f64) -> (f64, f64) {
+        (0.0, 0.0)
+    }
+    /// ∫Δd·I dτ over a step of `h` [s] [J], in closed form.
+    fn drift_charge(&self, _h: f64) -> f64 {
+        0.0
+    }
 }
 
 /// What one step of the temperature gives.

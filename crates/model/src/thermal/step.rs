@@ -161,6 +161,10 @@ fn held_throughout(
     if temperature != p.cooling_setpoint {
         return None;
     }
+    // With a drifting voltage the surplus is held between its values at the drift's extremes
+    // (it rises with the voltage, the current being ≥ 0).
+    let (drift_lo, drift_hi) = path.drift_bounds(h);
+    let (lowest, highest) = (balance.drifted(drift_lo), balance.drifted(drift_hi));
     let deviation = temperature - p.nominal_temperature;
     // s(I) = c2·I² + c1·I − loss.
     let c2 = balance.ohmic_resistance + p.resistance_temperature_coefficient * deviation;
@@ -168,19 +172,26 @@ fn held_throughout(
         - p.thermoneutral_voltage();
     let loss = (temperature - balance.ambient) / p.thermal_resistance;
     let within = |i: f64| {
-        let s = balance.surplus(i);
-        s >= -balance.heater && s <= p.max_cooling_power
+        lowest.surplus(i) >= -balance.heater && highest.surplus(i) <= p.max_cooling_power
     };
-    let vertex = if c2 != 0.0 {
-        -c1 / (2.0 * c2)
-    } else {
-        f64::NAN
+    let vertex = |c1: f64| {
+        if c2 != 0.0 {
+            -c1 / (2.0 * c2)
+        } else {
+            f64::NAN
+        }
     };
-    let vertex_inside = vertex > env.min && vertex < env.max;
-    if !(within(env.min) && within(env.max) && (!vertex_inside || within(vertex))) {
+    let inside = |v: f64| v > env.min && v < env.max;
+    let (v_lo, v_hi) = (vertex(c1 + drift_lo), vertex(c1 + drift_hi));
+    if !(within(env.min)
+        && within(env.max)
+        && (!inside(v_lo) || within(v_lo))
+        && (!inside(v_hi) || within(v_hi)))
+    {
         return None;
     }
-    let surplus_integral = c1 * env.charge + c2 * env.current_squared - loss * h;
+    let surplus_integral =
+        c1 * env.charge + c2 * env.current_squared + path.drift_charge(h) - loss * h;
     // Heat is only ever supplied by a heater (in standby); without one a negative integral is
     // rounding of a surplus that stays ≥ 0.
     let (cooling_energy, heating_energy) = if surplus_integral < 0.0 && balance.heater > 0.0 {
@@ -291,7 +302,11 @@ impl<P: CurrentPath> Balance<'_, P> {
             Regime::Below => temperature >= setpoint,
             Regime::Above => temperature <= setpoint,
             Regime::Held => {
-                let s = self.balance.surplus(self.path.current(self.start + x));
+                let tau = self.start + x;
+                let s = self
+                    .balance
+                    .drifted(self.path.drift(tau))
+                    .surplus(self.path.current(tau));
                 s < -self.balance.heater || s > self.balance.thermal.max_cooling_power
             }
         }
@@ -310,8 +325,9 @@ impl<P: CurrentPath> Balance<'_, P> {
 
 impl<P: CurrentPath> System<f64, Vector5<f64>> for Balance<'_, P> {
     fn system(&self, x: f64, y: &Vector5<f64>, dy: &mut Vector5<f64>) {
-        let b = self.balance;
-        let current = self.path.current(self.start + x);
+        let tau = self.start + x;
+        let b = &self.balance.drifted(self.path.drift(tau));
+        let current = self.path.current(tau);
         let temperature = y[0];
         // Along a moving current the module runs: no heater (Qc ≥ 0 here).
         let cooling = b.thermostat_power(current, self.regime);

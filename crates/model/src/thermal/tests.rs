@@ -1,6 +1,7 @@
 //! The heat balance against closed forms and conservation: steady states in each regime,
 //! the free cool-down, the energy balance along a moving current, and step-size independence.
 
+use crate::ageing::DriftChange;
 use super::step::{advance, integrate, CurrentPath, ThermalStep};
 use super::*;
 
@@ -283,6 +284,7 @@ fn a_held_setpoint_along_a_tracking_current_is_the_integrators_result_in_closed_
             dynamics: &dynamics,
             start,
             setpoint: u,
+            drift: DriftChange::NONE,
         };
         assert!(path.envelope(h).is_some(), "the step tracks");
         let closed = advance(&b, ts, &path, h).unwrap();
@@ -317,6 +319,7 @@ fn a_current_that_leaves_the_held_range_is_integrated_with_its_event() {
         dynamics: &dynamics,
         start: dynamics.steady_state(100.0),
         setpoint: 60.0,
+        drift: DriftChange::NONE,
     };
     let step = advance(&b, b.thermal.cooling_setpoint, &path, 600.0).unwrap();
     assert!(step.regime_changes >= 1);
@@ -346,6 +349,7 @@ fn collocation_along_a_moving_current_is_the_integrators_result() {
                 dynamics: &dynamics,
                 start,
                 setpoint: u,
+                drift: DriftChange::NONE,
             };
             let regime = b.regime(t0, path.current(0.0));
             let fast = super::collocation::step(&b, &path, regime, t0, h)
