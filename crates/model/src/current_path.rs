@@ -71,9 +71,9 @@ impl CurrentPath for HeldSetpoint<'_> {
             return 0.0;
         }
         let mut state = self.start;
-        let ints = self
-            .dynamics
-            .advance_with_moments(&mut state, self.setpoint, h, self.drift.rate);
+        let ints =
+            self.dynamics
+                .advance_with_moments(&mut state, self.setpoint, h, self.drift.rate);
         self.drift.charge(&ints)
     }
 }

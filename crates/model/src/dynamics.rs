@@ -1235,8 +1235,16 @@ mod tests {
             decay += 0.5 * dt * ((-mu * t0).exp() * i0 + (-mu * t).exp() * i1);
             last = i1;
         }
-        assert!((whole.1 - time).abs() < 1e-7 * time, "{} vs {time}", whole.1);
-        assert!((whole.2 - decay).abs() < 1e-7 * decay, "{} vs {decay}", whole.2);
+        assert!(
+            (whole.1 - time).abs() < 1e-7 * time,
+            "{} vs {time}",
+            whole.1
+        );
+        assert!(
+            (whole.2 - decay).abs() < 1e-7 * decay,
+            "{} vs {decay}",
+            whole.2
+        );
     }
 
     #[test]

@@ -943,10 +943,13 @@ impl Hub {
     pub fn readings(&self) -> HubReadings {
         let mut readings = self.read.unwrap_or_else(|| self.summed().1.readings());
         if self.config.operation.ageing.is_on() {
-            let (sum, max) = self.groups.iter().fold((0.0, 0.0), |(sum, max): (f64, f64), g| {
-                let d = g.unit.drift.total();
-                (sum + g.count as f64 * d, max.max(d))
-            });
+            let (sum, max) = self
+                .groups
+                .iter()
+                .fold((0.0, 0.0), |(sum, max): (f64, f64), g| {
+                    let d = g.unit.drift.total();
+                    (sum + g.count as f64 * d, max.max(d))
+                });
             readings.voltage_drift = sum / self.config.n_modules as f64;
             readings.max_voltage_drift = max;
         }
@@ -1024,7 +1027,12 @@ fn identity_order(a: &Group, b: &Group) -> Ordering {
         .then(a.unit.current.z1.total_cmp(&b.unit.current.z1))
         .then(a.unit.current.z2.total_cmp(&b.unit.current.z2))
         .then(a.unit.temperature.total_cmp(&b.unit.temperature))
-        .then(a.unit.drift.irreversible.total_cmp(&b.unit.drift.irreversible))
+        .then(
+            a.unit
+                .drift
+                .irreversible
+                .total_cmp(&b.unit.drift.irreversible),
+        )
         .then(a.unit.drift.reversible.total_cmp(&b.unit.drift.reversible))
         .then(a.running.total_cmp(&b.running))
         .then(a.starts.cmp(&b.starts))

@@ -187,9 +187,10 @@ impl Module {
                 .dynamics
                 .advance_with_moments(current, u, h, change.rate),
             (false, false) => self.dynamics.advance_linear(current, u, slope, h),
-            (false, true) => self
-                .dynamics
-                .advance_linear_with_moments(current, u, slope, h, change.rate),
+            (false, true) => {
+                self.dynamics
+                    .advance_linear_with_moments(current, u, slope, h, change.rate)
+            }
         }
     }
 

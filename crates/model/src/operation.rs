@@ -329,7 +329,17 @@ impl UnitState {
             match (self.state, command) {
                 (Steady, Run(u)) => {
                     let ageing = &op.ageing;
-                    self.run(params, dynamics, factors, thermal, ageing, u, left, h, &mut totals);
+                    self.run(
+                        params,
+                        dynamics,
+                        factors,
+                        thermal,
+                        ageing,
+                        u,
+                        left,
+                        h,
+                        &mut totals,
+                    );
                     return totals;
                 }
                 (Steady, Stop) => match op.below_minimum {
@@ -373,7 +383,8 @@ impl UnitState {
                 (Curve, Stop) => self.enter(UnitState::idle()),
                 (Curve, Run(_)) => {
                     let before = left;
-                    let done = self.wait(op, op.start_power, thermal, false, &mut left, &mut totals);
+                    let done =
+                        self.wait(op, op.start_power, thermal, false, &mut left, &mut totals);
                     totals.starting += before - left;
                     if done {
                         return totals;
@@ -383,7 +394,14 @@ impl UnitState {
                 }
                 (Standby, Stop) | (Blowdown, _) => {
                     let heated = self.state == Standby;
-                    if self.wait(op, op.standby_power, thermal, heated, &mut left, &mut totals) {
+                    if self.wait(
+                        op,
+                        op.standby_power,
+                        thermal,
+                        heated,
+                        &mut left,
+                        &mut totals,
+                    ) {
                         return totals;
                     }
                     self.enter(UnitState::idle());
@@ -411,7 +429,14 @@ impl UnitState {
             OperatingState::Standby | OperatingState::Blowdown if self.timer > h => {
                 let mut left = h;
                 let heated = self.state == OperatingState::Standby;
-                self.wait(op, op.standby_power, thermal, heated, &mut left, &mut totals);
+                self.wait(
+                    op,
+                    op.standby_power,
+                    thermal,
+                    heated,
+                    &mut left,
+                    &mut totals,
+                );
                 Some(totals)
             }
             _ => None,

@@ -544,6 +544,22 @@ impl Plant {
         }
     }
 
+    /// The voltage's drift [V] (hub: mean over the modules; 0 without ageing).
+    pub fn voltage_drift(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.voltage_drift(),
+            Plant::Hub(_, r) => r.voltage_drift,
+        }
+    }
+
+    /// The largest drift of any module [V] (0 without ageing).
+    pub fn max_voltage_drift(&self) -> f64 {
+        match self {
+            Plant::Module(m) => m.voltage_drift(),
+            Plant::Hub(_, r) => r.max_voltage_drift,
+        }
+    }
+
     /// Electric power per module [W].
     pub fn power(&self) -> f64 {
         self.hub_power() / self.modules()
@@ -737,6 +753,8 @@ fn round_robin(sets: &[Parameters], n: u32) -> Result<Vec<(Parameters, u32)>, Pa
         .collect())
 }
 
+#[cfg(test)]
+mod ageing_tests;
 #[cfg(test)]
 mod grid_tests;
 #[cfg(test)]

@@ -171,9 +171,8 @@ fn held_throughout(
     let c1 = balance.voltage_intercept + p.voltage_temperature_coefficient * deviation
         - p.thermoneutral_voltage();
     let loss = (temperature - balance.ambient) / p.thermal_resistance;
-    let within = |i: f64| {
-        lowest.surplus(i) >= -balance.heater && highest.surplus(i) <= p.max_cooling_power
-    };
+    let within =
+        |i: f64| lowest.surplus(i) >= -balance.heater && highest.surplus(i) <= p.max_cooling_power;
     let vertex = |c1: f64| {
         if c2 != 0.0 {
             -c1 / (2.0 * c2)

@@ -1,9 +1,9 @@
 //! The heat balance against closed forms and conservation: steady states in each regime,
 //! the free cool-down, the energy balance along a moving current, and step-size independence.
 
-use crate::ageing::DriftChange;
 use super::step::{advance, integrate, CurrentPath, ThermalStep};
 use super::*;
+use crate::ageing::DriftChange;
 
 /// A current that the test knows in closed form.
 struct Path<F: Fn(f64) -> f64>(F, Option<f64>);
@@ -371,6 +371,123 @@ fn collocation_along_a_moving_current_is_the_integrators_result() {
                     "{t0} {h}: {x} vs {y}"
                 );
             }
+        }
+    }
+}
+
+/// A held setpoint whose voltage drifts, seen without its closed forms (the integrator's path).
+struct DriftIntegrated<'a>(crate::current_path::HeldSetpoint<'a>);
+
+impl CurrentPath for DriftIntegrated<'_> {
+    fn current(&self, tau: f64) -> f64 {
+        self.0.current(tau)
+    }
+    fn constant(&self) -> Option<f64> {
+        self.0.constant()
+    }
+    fn drift(&self, tau: f64) -> f64 {
+        self.0.drift(tau)
+    }
+}
+
+#[test]
+fn a_drifting_voltage_heats_the_stack_and_the_energy_still_balances() {
+    use crate::ageing::AgeingParameters;
+    use crate::current_path::HeldSetpoint;
+    use crate::dynamics::CurrentDynamics;
+    use crate::parameters::Parameters;
+    let p = Parameters::default();
+    let dynamics = CurrentDynamics::new(&p);
+    // A large, fast drift, so that it matters: 2 V building up in 10 min, 36 mV/h.
+    let ageing = AgeingParameters {
+        drift_per_running_hour: 0.036,
+        reversible_drift: 2.0,
+        drift_build_up_time: 600.0,
+        ..AgeingParameters::default()
+    };
+    let thermal = ThermalParameters {
+        max_cooling_power: 400.0,
+        ..ThermalParameters::default()
+    };
+    let b = balance(thermal, 278.15);
+    let n_e = 23.0 * 1.481;
+    let (mut state, mut drift) = (dynamics.steady_state(60.0), ageing.initial());
+    let mut temperature = 318.15;
+    let (mut electric, mut loss, mut cooling, mut held) = (0.0, 0.0, 0.0, 0);
+    // Up to full load (through the setpoint: below, held, above), then down, 600 s steps.
+    for (k, u) in [100.0, 100.0, 100.0, 100.0, 70.0, 70.0, 100.0, 100.0]
+        .iter()
+        .enumerate()
+    {
+        let change = ageing.change_while_running(drift);
+        let path = HeldSetpoint {
+            dynamics: &dynamics,
+            start: state,
+            setpoint: *u,
+            drift: change,
+        };
+        let h = 600.0;
+        let s = advance(&b.drifted(drift.total()), temperature, &path, h).unwrap();
+        let ints = dynamics.advance_with_moments(&mut state, *u, h, ageing.build_up_rate());
+        electric += 35.75 * ints.charge
+            + 0.1529 * ints.current_squared
+            + thermal.voltage_temperature_coefficient * s.heat_charge
+            + thermal.resistance_temperature_coefficient * s.heat_squared
+            + ageing.energy(drift, &ints);
+        loss += (s.temperature_integral + (thermal.nominal_temperature - 278.15) * h) / 0.2;
+        cooling += s.cooling_energy;
+        held += usize::from(s.temperature == thermal.cooling_setpoint);
+        electric -= n_e * ints.charge;
+        temperature = s.temperature;
+        drift = ageing.after_running(drift, h);
+        assert!(k < 7 || drift.total() > 2.0);
+    }
+    assert!(held >= 1, "the thermostat held the setpoint");
+    let stored = thermal.heat_capacity * (temperature - 318.15);
+    let residual = electric - loss - cooling - stored;
+    assert!(
+        residual.abs() < 1e-6 * electric.abs(),
+        "heat {electric} J, loss {loss} J, cooling {cooling} J, stored {stored} J: residual {residual} J"
+    );
+}
+
+#[test]
+fn a_held_setpoint_with_a_drifting_voltage_is_the_integrators_result_in_closed_form() {
+    use crate::ageing::AgeingParameters;
+    use crate::current_path::HeldSetpoint;
+    use crate::dynamics::CurrentDynamics;
+    use crate::parameters::Parameters;
+    let p = Parameters::default();
+    let dynamics = CurrentDynamics::new(&p);
+    let b = balance(ThermalParameters::default(), 288.15);
+    let ts = b.thermal.cooling_setpoint;
+    let ageing = AgeingParameters {
+        drift_per_running_hour: 0.01,
+        reversible_drift: 0.5,
+        drift_build_up_time: 300.0,
+        ..AgeingParameters::default()
+    };
+    for (u, h, reversible) in [(65.0, 30.0, 0.0), (65.0, 120.0, 0.9), (70.0, 60.0, 0.2)] {
+        let drift = crate::ageing::Drift {
+            irreversible: 0.1,
+            reversible,
+        };
+        let path = HeldSetpoint {
+            dynamics: &dynamics,
+            start: dynamics.steady_state(80.0),
+            setpoint: u,
+            drift: ageing.change_while_running(drift),
+        };
+        assert!(path.envelope(h).is_some(), "the step tracks");
+        let drifted = b.drifted(drift.total());
+        let closed = advance(&drifted, ts, &path, h).unwrap();
+        assert_eq!((closed.temperature, closed.regime_changes), (ts, 0));
+        let integrated = integrate(&drifted, ts, &DriftIntegrated(path), h).unwrap();
+        for (x, y) in [
+            (closed.heat_charge, integrated.heat_charge),
+            (closed.cooling_energy, integrated.cooling_energy),
+        ] {
+            assert!((x - y).abs() <= 1e-9 * y.abs().max(1.0), "{x} vs {y}");
         }
     }
 }
