@@ -568,6 +568,23 @@ fn cases() -> Vec<(&'static str, Stage, Box<dyn Fn(&Fmu) -> sys::fmi2Status>)> {
             }),
         ),
         (
+            "driftBuildUpTime = 0 s at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set(ReversibleDrift, 0.05);
+                f.set(DriftBuildUpTime, 0.0);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
+            "driftPerRunningHour = -1e-5 V/h at initialisation",
+            Initialization,
+            Box::new(|f| {
+                f.set(DriftPerRunningHour, -1e-5);
+                unsafe { fmi2ExitInitializationMode(f.c) }
+            }),
+        ),
+        (
             "ambientTemperature = NaN",
             Stepping,
             Box::new(|f| f.set(AmbientTemperature, f64::NAN)),

@@ -3,7 +3,7 @@
 //! Serialised layout (little endian): magic "AEMFMUST", format version (u32), payload
 //! length (u32), payload, CRC-32 of everything before it (u32). The payload holds the GUID
 //! and every field of [`SavedState`] in order: flags, parameters, settings (the reserves
-//! offered among them, then the thermal and the grid-side ones), inputs, times, the module parameter file's name and its parameter
+//! offered among them, then the thermal, the grid-side and the ageing ones), inputs, times, the module parameter file's name and its parameter
 //! sets, the reserves' state (FFR's, and what was logged), then the plant (a module's state,
 //! or a hub's groups and totals). On the way back in,
 //! magic, version, length, checksum, GUID, enum codes, finiteness and the plant's
@@ -13,8 +13,8 @@ use crate::model_description::GUID;
 use aem_model::hub::{Group, HubSnapshot, HubTotals};
 use aem_model::operation::UnitState;
 use aem_model::{
-    CurrentState, FastReserve, GridParameters, ModuleState, OperatingState, Parameters,
-    PlantSettings, PlantSnapshot, ReserveSettings, ThermalParameters,
+    AgeingParameters, CurrentState, Drift, FastReserve, GridParameters, ModuleState,
+    OperatingState, Parameters, PlantSettings, PlantSnapshot, ReserveSettings, ThermalParameters,
 };
 
 use super::state_error::StateError;
@@ -24,7 +24,7 @@ use super::variables::Inputs;
 /// The first bytes of every serialised state.
 pub const MAGIC: &[u8; 8] = b"AEMFMUST";
 /// Version of the serialised format; bump it whenever the payload changes.
-pub const FORMAT_VERSION: u32 = 8;
+pub const FORMAT_VERSION: u32 = 9;
 const SAVED_MAGIC: u64 = 0x4145_4d5f_5354_4154; // "AEM_STAT"
 const PLANT_NONE: u8 = 0;
 const PLANT_MODULE: u8 = 1;
@@ -177,6 +177,17 @@ impl SavedState {
         ] {
             w.f64(x);
         }
+        let a = &s.ageing;
+        for x in [
+            a.drift_per_running_hour,
+            a.drift_per_start,
+            a.reversible_drift,
+            a.drift_build_up_time,
+            a.drift_recovery_time,
+            a.initial_drift,
+        ] {
+            w.f64(x);
+        }
         for x in [
             self.inputs.setpoint,
             self.inputs.power_reference,
@@ -221,6 +232,8 @@ impl SavedState {
                     m.temperature,
                     m.charge,
                     m.current_squared,
+                    m.drift.irreversible,
+                    m.drift.reversible,
                 ] {
                     w.f64(x);
                 }
@@ -240,6 +253,8 @@ impl SavedState {
                         g.unit.current.current,
                         g.running,
                         g.unit.temperature,
+                        g.unit.drift.irreversible,
+                        g.unit.drift.reversible,
                     ] {
                         w.f64(x);
                     }
@@ -349,6 +364,14 @@ impl SavedState {
                 supply_loss_voltage: r.finite()?,
                 supply_loss_resistance: r.finite()?,
             },
+            ageing: AgeingParameters {
+                drift_per_running_hour: r.finite()?,
+                drift_per_start: r.finite()?,
+                reversible_drift: r.finite()?,
+                drift_build_up_time: r.finite()?,
+                drift_recovery_time: r.finite()?,
+                initial_drift: r.finite()?,
+            },
         };
         let inputs = Inputs {
             setpoint: r.finite()?,
@@ -389,7 +412,7 @@ impl SavedState {
         let plant = match r.u8()? {
             PLANT_NONE => None,
             PLANT_MODULE => {
-                let mut m = [0.0; 9];
+                let mut m = [0.0; 11];
                 for v in m.iter_mut() {
                     *v = r.finite()?;
                 }
@@ -406,6 +429,10 @@ impl SavedState {
                     temperature: m[6],
                     charge: m[7],
                     current_squared: m[8],
+                    drift: Drift {
+                        irreversible: m[9],
+                        reversible: m[10],
+                    },
                 }))
             }
             PLANT_HUB => Some(PlantSnapshot::Hub(read_hub(&mut r)?)),
@@ -515,7 +542,7 @@ fn read_parameters(r: &mut Reader) -> Result<Parameters, StateError> {
 
 /// A hub's groups and totals; the group count is bounded by the bytes that hold them.
 fn read_hub(r: &mut Reader) -> Result<HubSnapshot, StateError> {
-    const GROUP_BYTES: usize = 4 + 4 + 1 + 1 + 6 * 8 + 8;
+    const GROUP_BYTES: usize = 4 + 4 + 1 + 1 + 8 * 8 + 8;
     let n = r.u32()? as usize;
     if n.checked_mul(GROUP_BYTES)
         .is_none_or(|b| b > r.bytes.len() - r.pos)
@@ -539,6 +566,10 @@ fn read_hub(r: &mut Reader) -> Result<HubSnapshot, StateError> {
             r.finite()?,
             r.finite()?,
         );
+        let drift = Drift {
+            irreversible: r.finite()?,
+            reversible: r.finite()?,
+        };
         let starts = r.u64()?;
         groups.push(Group {
             count,
@@ -549,6 +580,7 @@ fn read_hub(r: &mut Reader) -> Result<HubSnapshot, StateError> {
                 timer,
                 current: CurrentState { z1, z2, current },
                 temperature,
+                drift,
             },
             running,
             starts,
@@ -665,6 +697,10 @@ mod tests {
             temperature: 301.25,
             charge: 451.5,
             current_squared: 18_000.25,
+            drift: Drift {
+                irreversible: 0.125,
+                reversible: 0.0625,
+            },
         };
         let inputs = Inputs {
             setpoint: 73.0,
@@ -686,6 +722,14 @@ mod tests {
                 supply_loss_voltage: 0.75,
                 supply_loss_resistance: 0.002,
                 grid_side_reference: true,
+            },
+            ageing: AgeingParameters {
+                drift_per_running_hour: 5e-6,
+                drift_per_start: 1e-4,
+                reversible_drift: 0.25,
+                drift_build_up_time: 7_200.0,
+                drift_recovery_time: 1_800.0,
+                initial_drift: 0.125,
             },
             ..PlantSettings::default()
         };
@@ -718,6 +762,11 @@ mod tests {
             below_minimum: 1,
             power_input: true,
             reserve,
+            ageing: AgeingParameters {
+                drift_per_start: 1e-3,
+                reversible_drift: 0.5,
+                ..AgeingParameters::default()
+            },
             ..PlantSettings::default()
         };
         let config = settings.config().unwrap();

@@ -141,6 +141,14 @@ pub fn module_parameter(var: RealVariable) -> Option<ModuleParameter> {
         | HubAcPower
         | HubAcEnergy
         | StandbyHeaterPower
+        | DriftPerRunningHour
+        | DriftPerStart
+        | ReversibleDrift
+        | DriftBuildUpTime
+        | DriftRecoveryTime
+        | InitialVoltageDrift
+        | VoltageDrift
+        | MaxVoltageDrift
         | WarmStarts => None,
     }
 }
@@ -182,12 +190,18 @@ fn setting_mut(settings: &mut PlantSettings, var: RealVariable) -> Option<&mut f
         SupplyNoLoadLoss => Some(&mut settings.grid.supply_no_load_loss),
         SupplyLossVoltage => Some(&mut settings.grid.supply_loss_voltage),
         SupplyLossResistance => Some(&mut settings.grid.supply_loss_resistance),
+        DriftPerRunningHour => Some(&mut settings.ageing.drift_per_running_hour),
+        DriftPerStart => Some(&mut settings.ageing.drift_per_start),
+        ReversibleDrift => Some(&mut settings.ageing.reversible_drift),
+        DriftBuildUpTime => Some(&mut settings.ageing.drift_build_up_time),
+        DriftRecoveryTime => Some(&mut settings.ageing.drift_recovery_time),
+        InitialVoltageDrift => Some(&mut settings.ageing.initial_drift),
         Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance
         | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Setpoint
         | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower
         | HubH2Flow | HubH2MassFlow | HubEnergy | HubH2Produced | RunningHours | Starts
         | Frequency | ReserveRequest | AmbientTemperature | StackTemperature | CoolingPower
-        | AcPower | HubAcPower | HubAcEnergy | WarmStarts => None,
+        | AcPower | HubAcPower | HubAcEnergy | WarmStarts | VoltageDrift | MaxVoltageDrift => None,
     }
 }
 
@@ -258,6 +272,14 @@ pub fn real_input_mut(inputs: &mut Inputs, var: RealVariable) -> Option<&mut f64
         | HubAcPower
         | HubAcEnergy
         | StandbyHeaterPower
+        | DriftPerRunningHour
+        | DriftPerStart
+        | ReversibleDrift
+        | DriftBuildUpTime
+        | DriftRecoveryTime
+        | InitialVoltageDrift
+        | VoltageDrift
+        | MaxVoltageDrift
         | WarmStarts => None,
     }
 }
@@ -287,6 +309,8 @@ pub fn real_output(var: RealVariable, plant: &Plant, reserve_request: f64) -> Op
         HubAcPower => Some(plant.hub_ac_power()),
         HubAcEnergy => Some(plant.hub_ac_energy()),
         WarmStarts => Some(plant.warm_starts()),
+        VoltageDrift => Some(plant.voltage_drift()),
+        MaxVoltageDrift => Some(plant.max_voltage_drift()),
         Setpoint
         | PowerReference
         | Gain
@@ -330,6 +354,12 @@ pub fn real_output(var: RealVariable, plant: &Plant, reserve_request: f64) -> Op
         | SupplyLossVoltage
         | SupplyLossResistance
         | StandbyHeaterPower
+        | DriftPerRunningHour
+        | DriftPerStart
+        | ReversibleDrift
+        | DriftBuildUpTime
+        | DriftRecoveryTime
+        | InitialVoltageDrift
         | AmbientTemperature => None,
     }
 }
