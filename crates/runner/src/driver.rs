@@ -51,13 +51,15 @@ const MODULE_PARAMETERS: [&str; 11] = [
 ];
 
 /// Outputs read at the end of the run.
-const TOTALS: [&str; 6] = [
+const TOTALS: [&str; 8] = [
     "hubEnergy",
     "hubH2Produced",
     "starts",
     "runningHours",
     "hubAcEnergy",
     "warmStarts",
+    "voltageDrift",
+    "maxVoltageDrift",
 ];
 
 /// An fmi2 call's result: OK or Warning pass (the warning's text is collected).
@@ -355,6 +357,8 @@ pub fn run(fmu_path: &Path, scenario: &Scenario) -> Result<(Totals, Option<Sums>
         grid_energy: since(4),
         grid_side: grid_side(&scenario.parameters),
         warm_starts: since(5),
+        voltage_drift: at_end[6],
+        max_voltage_drift: at_end[7],
     };
     Ok((totals, sums))
 }

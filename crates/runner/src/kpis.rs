@@ -15,7 +15,7 @@ const J_PER_MWH: f64 = 3.6e9;
 
 /// Version of these definitions; aem-study keys stored results with it (aem_electrolyser.study.definition's
 /// KPI_VERSION must equal it, which the worker checks), so changed definitions rerun.
-pub const KPI_VERSION: u32 = 2;
+pub const KPI_VERSION: u32 = 3;
 
 /// Running sums over the steps of a power-driven run.
 #[derive(Debug, Default, Clone)]
@@ -62,6 +62,9 @@ pub struct Totals {
     pub warm_starts: f64,
     /// runningHours [h], summed over the modules.
     pub running_hours: f64,
+    /// voltageDrift and maxVoltageDrift at the end [V]: the mean over the modules, the largest.
+    pub voltage_drift: f64,
+    pub max_voltage_drift: f64,
 }
 
 /// The KPI row, keys with units (the columns of aem_electrolyser.study.kpis). `sums` is None for a
@@ -125,6 +128,14 @@ pub fn row(totals: &Totals, sums: Option<&Sums>) -> Map<String, Value> {
         number(totals.running_hours / modules),
     );
     put(
+        "mean voltage drift [mV]",
+        number(totals.voltage_drift * 1e3),
+    );
+    put(
+        "max voltage drift [mV]",
+        number(totals.max_voltage_drift * 1e3),
+    );
+    put(
         "rms tracking error [MW]",
         wind(|s| (s.squared_error / s.steps as f64).sqrt() / 1e6),
     );
@@ -160,6 +171,8 @@ mod tests {
             starts: 4.0,
             warm_starts: 3.0,
             running_hours: 3.0,
+            voltage_drift: 0.0125,
+            max_voltage_drift: 0.02,
         };
         let row = row(&totals, Some(&sums));
         let get = |k: &str| row[k].as_f64().unwrap();
@@ -170,6 +183,8 @@ mod tests {
         assert_eq!(get("starts per module [1]"), 2.0);
         assert_eq!(get("warm starts per module [1]"), 1.5);
         assert_eq!(get("cold starts per module [1]"), 0.5);
+        assert_eq!(get("mean voltage drift [mV]"), 12.5);
+        assert_eq!(get("max voltage drift [mV]"), 20.0);
         assert_eq!(get("hub rated power [MW]"), 50.0);
         assert_eq!(get("full-load hours [h]"), 122e6 / 3600.0 / 50e6);
         assert_eq!(

@@ -54,7 +54,7 @@ from .series import GeneratedWind, SeriesFile
 
 YEAR = 365 * 86400.0
 #: Bumped when the KPIs' definitions change: stored results of older ones are not reused.
-KPI_VERSION = 2
+KPI_VERSION = 3
 SPECIAL_AXES = ("series", "seed", "hub_size", "step", "horizon")
 TABLES = ("study", "parameters", "series", "axes")
 STUDY_KEYS = ("title", "fmu", "horizon", "step")

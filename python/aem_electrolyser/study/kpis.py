@@ -22,6 +22,8 @@ KPIS = {
     "warm starts per module [1]": "of them, the warm ones (warmStartTime: from standby, or a stack at least warmStartTemperature)",
     "cold starts per module [1]": "of them, the cold ones (coldStartTime)",
     "running hours per module [h]": "running time summed over the modules / modules",
+    "mean voltage drift [mV]": "the stack voltage's drift with use at the end, mean over the modules (voltageDrift; 0 without ageing)",
+    "max voltage drift [mV]": "the largest drift of any module at the end (maxVoltageDrift)",
     "rms tracking error [MW]": "RMS over steps of the hub's step-mean power minus the reference capped at the hub's rated power",
 }
 

@@ -104,6 +104,8 @@ column = "power [kW]"
         "warm starts per module [1]": 0.0,
         "cold starts per module [1]": 0.0,
         "running hours per module [h]": hours,
+        "mean voltage drift [mV]": 0.0,
+        "max voltage drift [mV]": 0.0,
         "rms tracking error [MW]": 0.0,
     }
     for name, value in expected.items():
@@ -111,6 +113,41 @@ column = "power [kW]"
     assert row["specific energy [kWh/kg]"] == pytest.approx(
         expected["energy drawn [MWh]"] * 1e3 / expected["hydrogen [kg]"], rel=1e-9
     )
+
+
+def test_an_ageing_hub_reports_its_drift_and_draws_its_energy(tmp_path, fmu_path):
+    """The flat reference with ageing: every module runs throughout, so its drift at the end is
+    d0 + rho T + A (1 - e^(-T/tau_b)); the current follows the power reference by the curve
+    without drift, so the energy drawn is the plain one plus I * integral of d over the run."""
+    n, hub_power, hours = 400, 0.8e6, 2.0
+    d0, rho, amplitude, tau = 0.01, 2e-3, 0.05, 3600.0  # V, V/h, V, s
+    (tmp_path / "flat.csv").write_text(f"time [s],power [kW]\n0,{hub_power / 1e3}\n{hours * 3600},{hub_power / 1e3}\n")
+    path = write_study(
+        tmp_path,
+        f"""horizon = "{hours} h"
+[parameters]
+nModules = {n}
+initialVoltageDrift = {d0}
+driftPerRunningHour = {rho}
+reversibleDrift = {amplitude}
+driftBuildUpTime = {tau}
+[series.flat]
+file = "flat.csv"
+column = "power [kW]"
+""",
+        fmu_path,
+    )
+    _, frame = run_study(path, tmp_path / "out", serial=True)
+    row = frame.iloc[0]
+    assert row["status"] == "done", row["message"]
+    t = hours * 3600.0
+    drift = d0 + rho * hours + amplitude * (1.0 - math.exp(-t / tau))
+    assert row["mean voltage drift [mV]"] == pytest.approx(drift * 1e3, rel=1e-12)
+    assert row["max voltage drift [mV]"] == pytest.approx(drift * 1e3, rel=1e-12)
+    current = PAPER["gain"] * setpoint_for(hub_power / n)
+    drift_integral = (d0 + amplitude) * t + 0.5 * rho / 3600.0 * t * t - amplitude * tau * (1.0 - math.exp(-t / tau))
+    energy = (hub_power * t + n * current * drift_integral) / 3.6e9
+    assert row["energy drawn [MWh]"] == pytest.approx(energy, rel=1e-9)
 
 
 def test_a_grid_side_reference_is_drawn_from_the_grid_with_its_losses_and_auxiliaries(tmp_path, fmu_path):
