@@ -17,7 +17,9 @@
 //! 7. [`temperature`]: the curve's temperature coefficients kV, kR from the temperature
 //!    variation around the nominal temperature (for the FMU's thermal model);
 //! 8. [`heat`]: the stack's heat capacity and thermal resistance from its warm-ups and
-//!    cool-downs below the setpoint (with an ambient-temperature column).
+//!    cool-downs below the setpoint (with an ambient-temperature column);
+//! 9. [`drift`]: the voltage's drift with use (the FMU's ageing) from the voltage against
+//!    consecutive runtime, running hours and starts.
 //!
 //! [`parameter_file`] gathers the fits under the FMU's parameter names and units with the
 //! statistics, [`report`] writes the Table-I-like text, [`validate`] compares a held-out day with the identified model, and
@@ -29,6 +31,7 @@
 
 pub mod columns;
 pub mod dialect;
+pub mod drift;
 pub mod dynamics;
 pub mod error;
 pub mod heat;
@@ -53,6 +56,7 @@ use aem_model::{ModuleParameter, Parameters};
 
 pub use error::{Error, Result};
 
+use drift::DriftFit;
 use dynamics::{DynamicsFit, DynamicsOptions, Estimate};
 use heat::{HeatFit, HeatOptions};
 use hydrogen::HydrogenFit;
@@ -185,6 +189,8 @@ pub struct ModuleFit {
     pub temperature: Stage<TemperatureFit>,
     /// The stack's heat capacity and thermal resistance (for the thermal model, likewise).
     pub heat: Stage<HeatFit>,
+    /// The voltage's drift with use (for the FMU's ageing, likewise).
+    pub drift: Stage<DriftFit>,
     /// The resulting parameter set (identified values over the base set).
     pub parameters: Parameters,
     /// Which parameters were identified, with their estimates.
@@ -264,6 +270,9 @@ pub fn fit_module(log: &ModuleLog, options: &FitOptions) -> ModuleFit {
     let heat: Stage<HeatFit> = heat::fit_heat_balance(log, &options.heat).into();
     lap("heat balance", &mut timings);
 
+    let drift: Stage<DriftFit> = drift::fit_drift(log, &options.polarisation).into();
+    lap("voltage drift", &mut timings);
+
     let mut parameters = base;
     let mut estimates = BTreeMap::new();
     if let Stage::Done(p) = &polarisation {
@@ -306,6 +315,7 @@ pub fn fit_module(log: &ModuleLog, options: &FitOptions) -> ModuleFit {
         hydrogen,
         temperature,
         heat,
+        drift,
         parameters,
         estimates,
         timings,

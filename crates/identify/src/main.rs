@@ -177,6 +177,10 @@ struct SynthesizeArgs {
     /// with an ambient_temperature column, instead of the scripted warm-up and dips.
     #[arg(long)]
     thermal: bool,
+    /// A voltage drift with use (the FMU's ageing: 0.4 V reversible, building up in 2 h and
+    /// recovering in 8 h, 2 mV per running hour, 5 mV per start).
+    #[arg(long)]
+    drift: bool,
 }
 
 /// glibc hands freed blocks above 128 kB straight back to the kernel. The fits allocate and
@@ -673,6 +677,7 @@ fn synthesize(args: SynthesizeArgs) -> Result<(), Error> {
         seed: args.seed,
         running_hours: args.hours,
         thermal: args.thermal.then(synthetic::SyntheticThermal::default),
+        drift: args.drift.then(synthetic::SyntheticDrift::default),
         ..CampaignSpec::default()
     };
     let days: Vec<synthetic::Day> = (args.skip..args.skip + args.days)
@@ -695,6 +700,12 @@ fn synthesize(args: SynthesizeArgs) -> Result<(), Error> {
         say(&format!(
             "stack temperature from the heat balance: heatCapacity {} J/K, thermalResistance {} K/W, {} cells, air {} °C ± {} K\n",
             t.heat_capacity, t.thermal_resistance, t.cells, t.ambient, t.ambient_swing
+        ))?;
+    }
+    if let Some(d) = &spec.drift {
+        say(&format!(
+            "voltage drift: reversibleDrift {} V, driftBuildUpTime {} s, driftRecoveryTime {} s, driftPerRunningHour {} V/h, driftPerStart {} V\n",
+            d.amplitude, d.build_up_time, d.recovery_time, d.per_running_hour, d.per_start
         ))?;
     }
     say(&format!(

@@ -338,6 +338,57 @@ fn render_module(out: &mut String, fit: &ModuleFit) {
         }
         Stage::Skipped(why) => row("Heat balance", "not identified", why.clone(), String::new()),
     }
+    match &fit.drift {
+        Stage::Done(d) => {
+            row(
+                "Voltage drift",
+                "A (reversible)",
+                format!("{} V", sig(d.amplitude.value, 4)),
+                interval(&d.amplitude, "V"),
+            );
+            row(
+                "",
+                "τb (build-up)",
+                format!("{} s", sig(d.build_up_time.value, 4)),
+                interval(&d.build_up_time, "s"),
+            );
+            let optional = |e: &Option<Estimate>, unit: &str| match e {
+                Some(e) => (format!("{} {unit}", sig(e.value, 4)), interval(e, unit)),
+                None => ("not identified".into(), String::new()),
+            };
+            let (v, e) = optional(&d.recovery_time, "s");
+            row("", "τr (recovery)", v, e);
+            row(
+                "",
+                "ρ (per running hour)",
+                format!("{} V/h", sig(d.per_running_hour.value, 4)),
+                interval(&d.per_running_hour, "V/h"),
+            );
+            let (v, e) = optional(&d.per_start, "V");
+            row("", "δs (per start)", v, e);
+            row(
+                "",
+                "RMSE",
+                format!("{} V", sig(d.rmse, 4)),
+                format!(
+                    "{} V without the drift; {} points, {} runs, the longest {} h",
+                    sig(d.rmse_without_drift, 4),
+                    d.points,
+                    d.runs,
+                    sig(d.longest_run / 3600.0, 3)
+                ),
+            );
+            for note in &d.notes {
+                row("", "note", note.clone(), String::new());
+            }
+        }
+        Stage::Skipped(why) => row(
+            "Voltage drift",
+            "not identified",
+            why.clone(),
+            String::new(),
+        ),
+    }
     let _ = writeln!(out);
     if let Stage::Done(d) = &fit.dynamics {
         let groups: Vec<String> = d
@@ -525,6 +576,15 @@ pub fn statistics_json(fit: &ModuleFit) -> Value {
             "heatCapacity": estimate_json(&h.heat_capacity, "J/K"),
             "thermalResistance": estimate_json(&h.thermal_resistance, "K/W"),
             "rmseK": num(h.rmse), "windows": h.windows, "windowsWithHeat": h.heated,
+        })),
+        "drift": stage_json(&fit.drift, |d| json!({
+            "reversibleDrift": estimate_json(&d.amplitude, "V"),
+            "driftBuildUpTime": estimate_json(&d.build_up_time, "s"),
+            "driftRecoveryTime": d.recovery_time.as_ref().map_or(Value::Null, |e| estimate_json(e, "s")),
+            "driftPerRunningHour": estimate_json(&d.per_running_hour, "V/h"),
+            "driftPerStart": d.per_start.as_ref().map_or(Value::Null, |e| estimate_json(e, "V")),
+            "rmseV": num(d.rmse), "rmseWithoutDriftV": num(d.rmse_without_drift),
+            "points": d.points, "runs": d.runs, "longestRunS": num(d.longest_run), "notes": d.notes,
         })),
         "hydrogen": stage_json(&fit.hydrogen, |h| json!({
             "rmseNlPerH": num(h.rmse), "points": h.points, "cells": h.cells, "faradayEfficiency": num(h.faraday_efficiency),

@@ -13,7 +13,9 @@
 //! - rare disturbed steps (a 2…3 A dip decaying over a minute right after a step) that the
 //!   outlier removal must catch;
 //! - on request ([`CsvOptions::broken`]), broken rows of every kind and one gap, counted in
-//!   [`Injected`] so tests can compare with the reader's counts.
+//!   [`Injected`] so tests can compare with the reader's counts;
+//! - on request ([`CampaignSpec::drift`]), the FMU's ageing: a voltage drift that rises per
+//!   running hour and per start and builds up over each run, recovering between runs.
 
 use std::fmt::Write as _;
 
@@ -91,6 +93,59 @@ pub struct CampaignSpec {
     /// The stack temperature from a heat balance instead of the scripted warm-up and dips,
     /// with an ambient-temperature column (None: the scripted temperature, no such column).
     pub thermal: Option<SyntheticThermal>,
+    /// The voltage's drift with use (None: no drift).
+    pub drift: Option<SyntheticDrift>,
+}
+
+/// The FMU's ageing (`crate`-independent copy of its equations, as the campaign's truth): d =
+/// d_irr + d_rev, d_irr rising by `per_running_hour` per hour run and `per_start` per start,
+/// τb·d(d_rev)/dt = A − d_rev while running, τr·d(d_rev)/dt = −d_rev otherwise; the campaign
+/// starts rested with no drift. A row runs when its setpoint is above 0.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SyntheticDrift {
+    /// A [V].
+    pub amplitude: f64,
+    /// τb [s].
+    pub build_up_time: f64,
+    /// τr [s].
+    pub recovery_time: f64,
+    /// ρ [V/h].
+    pub per_running_hour: f64,
+    /// δs [V].
+    pub per_start: f64,
+}
+
+impl Default for SyntheticDrift {
+    /// 0.4 V building up in 2 h and recovering in 8 h, 2 mV per running hour, 5 mV per start.
+    fn default() -> Self {
+        SyntheticDrift {
+            amplitude: 0.4,
+            build_up_time: 7_200.0,
+            recovery_time: 28_800.0,
+            per_running_hour: 2e-3,
+            per_start: 5e-3,
+        }
+    }
+}
+
+/// A drift's state: (d_irr, d_rev) [V].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct DriftState(f64, f64);
+
+impl SyntheticDrift {
+    /// The state after `length` [s] running (`start`: the interval begins with a start).
+    fn run(&self, d: DriftState, length: f64, start: bool) -> DriftState {
+        let started = if start { self.per_start } else { 0.0 };
+        DriftState(
+            d.0 + started + self.per_running_hour * length / 3600.0,
+            self.amplitude + (d.1 - self.amplitude) * (-length / self.build_up_time).exp(),
+        )
+    }
+
+    /// The state after `length` [s] at rest.
+    fn rest(&self, d: DriftState, length: f64) -> DriftState {
+        DriftState(d.0, d.1 * (-length / self.recovery_time).exp())
+    }
 }
 
 /// A stack whose temperature follows C·dT/dt = (V − n·1.481 V)·I − (T − Ta)/Rth − Qc, a
@@ -164,6 +219,7 @@ impl Default for CampaignSpec {
             dips_per_day: 4,
             disturbed_fraction: 0.01,
             thermal: None,
+            drift: None,
         }
     }
 }
@@ -251,6 +307,18 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
         })
         .collect();
 
+    // The drift at the day's first row: from each earlier day's first row, OFF_SECONDS − 1 s
+    // at rest, `running` s running (beginning with a start), and at rest until the next day's
+    // first row (row by row below, the same intervals).
+    let before = (OFF_SECONDS - 1) as f64;
+    let mut drift = DriftState::default();
+    if let Some(dr) = &spec.drift {
+        for _ in 0..index {
+            drift = dr.rest(drift, before);
+            drift = dr.run(drift, running as f64, true);
+            drift = dr.rest(drift, 86_400.0 - before - running as f64);
+        }
+    }
     let mut day = Day::default();
     let mut module: Option<Module> = None;
     let mut off_current = 0.0;
@@ -334,12 +402,24 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
                 0.0
             };
             let i_true = current + extra;
+            if let Some(dr) = &spec.drift {
+                // Row n's interval (t[n−1], t[n]]: running if its setpoint is, the first one a start.
+                drift = if row == 0 {
+                    drift
+                } else if running {
+                    dr.run(drift, 1.0, previous_setpoint == 0.0)
+                } else {
+                    dr.rest(drift, 1.0)
+                };
+            }
             let voltage = if running || off_current > 0.5 {
                 p.voltage_intercept
                     + p.ohmic_resistance * i_true
                     + spec.temperature_coefficient * (55.0 - temperature)
                     + spec.resistance_temperature_coefficient * (temperature - 55.0) * i_true
                     + spec.pressure_coefficient * (29.0 - pressure)
+                    + drift.0
+                    + drift.1
             } else {
                 0.0
             };
