@@ -212,6 +212,8 @@ mod tests {
             starts: 0.0,
             warm_starts: 0.0,
             running_hours: 0.0,
+            voltage_drift: 0.0,
+            max_voltage_drift: 0.0,
         };
         let row = row(&totals, None);
         assert!(row["wind not absorbed [MWh]"].is_null());

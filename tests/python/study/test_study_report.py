@@ -174,6 +174,8 @@ def test_written_files_and_plots(crossed):
             "warm_starts_per_module_1",
             "cold_starts_per_module_1",
             "running_hours_per_module_h",
+            "mean_voltage_drift_mV",
+            "max_voltage_drift_mV",
         )
     }
     for name in plots:
