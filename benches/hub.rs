@@ -20,8 +20,8 @@ use aem_electrolyser::model_description::{BooleanVariable, IntegerVariable, Real
 use aem_model::dispatch::power_at_setpoint;
 use aem_model::spread::spread_parameters;
 use aem_model::{
-    BelowMinimum, Demand, DispatchPolicy, Hub, HubConfig, OperationParameters, Parameters,
-    ThermalParameters,
+    AgeingParameters, BelowMinimum, Demand, DispatchPolicy, Hub, HubConfig, OperationParameters,
+    Parameters, ThermalParameters,
 };
 use fmi_sys::fmi2 as sys;
 
@@ -191,11 +191,38 @@ fn main() {
         },
         first,
     );
+    // The same with ageing (a drift of 1 mV per running hour, 2 mV per start and 0.3 V
+    // reversible), without and with the stack temperature.
+    let ageing = AgeingParameters {
+        drift_per_running_hour: 1e-3,
+        drift_per_start: 2e-3,
+        reversible_drift: 0.3,
+        ..AgeingParameters::default()
+    };
+    let aged = |thermal: Option<ThermalParameters>| {
+        Hub::new(
+            base,
+            HubConfig {
+                thermal,
+                operation: OperationParameters { ageing, ..op },
+                ..config(DispatchPolicy::Sequential)
+            },
+            first,
+        )
+    };
+    let (aged_plain, aged_thermal) = (aged(None), aged(Some(ThermalParameters::default())));
     // Seed 1: the FMU's default spreadSeed, so that both runs simulate the same hub.
     let sets = spread_parameters(&base, MODULES as usize, 0.03, 1);
     let individual = Hub::with_parameter_sets(sets, config(DispatchPolicy::Equal), first);
-    match (equal, sequential, individual, thermal) {
-        (Ok(e), Ok(s), Ok(i), Ok(th)) => {
+    match (
+        equal,
+        sequential,
+        individual,
+        thermal,
+        aged_plain,
+        aged_thermal,
+    ) {
+        (Ok(e), Ok(s), Ok(i), Ok(th), Ok(ap), Ok(at)) => {
             println!("one day at 1 s, {MODULES} modules, rated {:.1} MW, wind-like power reference (seed 42)", rated / 1e6);
             if wanted("equal") {
                 run("equal", e, &reference, 0.5);
@@ -212,6 +239,23 @@ fn main() {
                     warm / plain
                 );
             }
+            let drifting = wanted("sequential, ageing")
+                .then(|| run("sequential, ageing", ap, &reference, 2.0))
+                .flatten();
+            let both = wanted("sequential, temperature and ageing")
+                .then(|| run("sequential, temperature and ageing", at, &reference, 2.0))
+                .flatten();
+            for (what, time) in [
+                ("ageing", drifting),
+                ("the stack temperature and ageing", both),
+            ] {
+                if let (Some(plain), Some(time)) = (plain, time) {
+                    println!(
+                        "  {what} costs {:.2}x the sequential hub's time (target <= 2x, same run)",
+                        time / plain
+                    );
+                }
+            }
             if wanted("individual parameters (eq)") {
                 run("individual parameters (eq)", i, &reference, 15.0);
             }
@@ -226,12 +270,14 @@ fn main() {
                 run_c_abi("C ABI individual parameters", 1, 0.03, &reference, 15.0);
             }
         }
-        (e, s, i, th) => eprintln!(
-            "cannot build the hubs: {:?} {:?} {:?} {:?}",
+        (e, s, i, th, ap, at) => eprintln!(
+            "cannot build the hubs: {:?} {:?} {:?} {:?} {:?} {:?}",
             e.err(),
             s.err(),
             i.err(),
-            th.err()
+            th.err(),
+            ap.err(),
+            at.err()
         ),
     }
 }

@@ -89,6 +89,20 @@ pub struct CurrentDynamics {
     compensated: bool,
 }
 
+/// What [`CurrentDynamics::advance_with_moments`] was last asked: the dynamics and the bits of
+/// the start state, setpoint, step and rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct MomentsKey {
+    dynamics: CurrentDynamics,
+    start: [u64; 6],
+}
+
+thread_local! {
+    /// The last step with moments on this thread: its key, end state and integrals.
+    static LAST_MOMENTS: std::cell::Cell<Option<(MomentsKey, CurrentState, CurrentIntegrals)>> =
+        const { std::cell::Cell::new(None) };
+}
+
 /// Decay of both modes over one interval of length L: e^(−λi L) and 1 − e^(−λi L)
 /// (from expm1, so short intervals keep full precision), and 1 − e^(−(λ1+λ2) L).
 #[derive(Clone, Copy, Debug)]
@@ -477,7 +491,36 @@ impl CurrentDynamics {
     /// [`Self::advance`] with the current's moments over the step as well: ∫τ·I dτ and
     /// ∫e^(−μτ)·I dτ for a rate `mu` > 0 [1/s], in closed form on every ramp and tracking
     /// segment (what a voltage that drifts linearly and exponentially in time draws).
+    ///
+    /// The last call's inputs and result are kept per thread: a hub's groups that differ only
+    /// in their drift are adjacent and step the same current, which is then computed once (a
+    /// pure function's memo: the same inputs, bit for bit, give the same result).
     pub fn advance_with_moments(
+        &self,
+        state: &mut CurrentState,
+        u: f64,
+        h: f64,
+        mu: f64,
+    ) -> CurrentIntegrals {
+        let key = MomentsKey {
+            dynamics: *self,
+            start: [state.z1, state.z2, state.current, u, h, mu].map(f64::to_bits),
+        };
+        if let Some((end, ints)) = LAST_MOMENTS.with(|last| {
+            last.get()
+                .filter(|(k, _, _)| *k == key)
+                .map(|(_, end, ints)| (end, ints))
+        }) {
+            *state = end;
+            return ints;
+        }
+        let ints = self.compute_with_moments(state, u, h, mu);
+        LAST_MOMENTS.with(|last| last.set(Some((key, *state, ints))));
+        ints
+    }
+
+    /// [`Self::advance_with_moments`] without the memo.
+    fn compute_with_moments(
         &self,
         state: &mut CurrentState,
         u: f64,
@@ -488,7 +531,7 @@ impl CurrentDynamics {
             let (c1, c2) = (-self.gain * u * self.b / self.a, self.gain * u);
             state.z1 += c1;
             state.z2 += c2;
-            let integrals = self.plain().advance_with_moments(state, u, h, mu);
+            let integrals = self.plain().compute_with_moments(state, u, h, mu);
             state.z1 -= c1;
             state.z2 -= c2;
             return integrals;
