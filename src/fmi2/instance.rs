@@ -16,6 +16,7 @@ use aem_model::{
     shown, EventState, FrequencyResponse, Parameters, Plant, PlantConfig, PlantEvent, PlantSettings,
 };
 
+use super::build_error::{BuildError, ValueError};
 use super::file_location::{locate, Os};
 use super::fmu_state::{ReserveState, SavedState};
 use super::logger::{Logger, LOG_EVENTS};
@@ -139,26 +140,27 @@ impl Instance {
     }
 
     /// The parameter sets of `moduleParameterFile` over the current parameters, if one is set.
-    fn read_module_sets(&self) -> Result<Option<Vec<Parameters>>, String> {
+    fn read_module_sets(&self) -> Result<Option<Vec<Parameters>>, BuildError> {
         let value = self.module_parameter_file.as_str();
         if value.is_empty() {
             return Ok(None);
         }
         let path = locate(value, self.resources.as_deref(), Os::HERE)
-            .map_err(|e| format!("moduleParameterFile: {e}"))?;
-        let file = ParameterFile::load(&path).map_err(|e| match &self.resources {
-            Some(resources) if path.is_relative() => {
-                format!("moduleParameterFile: {e} (looked for in the resources folder {} and in the working directory)", resources.display())
-            }
-            _ => format!("moduleParameterFile: {e}"),
+            .map_err(BuildError::ParameterFileLocation)?;
+        let file = ParameterFile::load(&path).map_err(|error| BuildError::ParameterFile {
+            error,
+            resources: self.resources.clone().filter(|_| path.is_relative()),
         })?;
-        let path = path.display();
         let sets = file
             .modules
             .iter()
             .map(|m| {
                 m.parameters_over(self.params)
-                    .map_err(|e| format!("moduleParameterFile {path}, module {}: {e}", m.module))
+                    .map_err(|error| BuildError::ModuleEntry {
+                        path: path.clone(),
+                        module: m.module.clone(),
+                        error,
+                    })
             })
             .collect::<Result<Vec<_>, _>>()?;
         Ok(Some(sets))
@@ -166,8 +168,8 @@ impl Instance {
 
     /// The plant for the current parameters, settings and inputs, in steady state, with the
     /// per-module sets it uses.
-    fn build_plant(&self) -> Result<(PlantConfig, Plant, Option<Vec<Parameters>>), String> {
-        let config = self.settings.config().map_err(|e| e.to_string())?;
+    fn build_plant(&self) -> Result<(PlantConfig, Plant, Option<Vec<Parameters>>), BuildError> {
+        let config = self.settings.config()?;
         let sets = self.read_module_sets()?;
         let request = config.reserve.proportional(self.inputs.frequency);
         let (setpoint, power) = (self.inputs.setpoint, self.inputs.power_reference);
@@ -178,11 +180,10 @@ impl Instance {
             setpoint,
             power,
             request,
-        )
-        .map_err(|e| e.to_string())?;
+        )?;
         plant
             .set_ambient_temperature(self.inputs.ambient_temperature)
-            .map_err(|e| e.to_string())?;
+            .map_err(BuildError::Input)?;
         Ok((config, plant, sets))
     }
 
@@ -293,18 +294,25 @@ impl Instance {
 
     /// Calls `f` with the plant: the running one, or in initialization mode one built from
     /// the current start values.
-    fn with_plant<T>(&self, name: &str, f: impl FnOnce(&Plant) -> T) -> Result<T, String> {
+    fn with_plant<T>(
+        &self,
+        name: &'static str,
+        f: impl FnOnce(&Plant) -> T,
+    ) -> Result<T, ValueError> {
         match &self.plant {
             Some((_, plant)) => Ok(f(plant)),
             None => self
                 .build_plant()
                 .map(|(_, plant, _)| f(&plant))
-                .map_err(|e| format!("{name} cannot be computed yet: {e}")),
+                .map_err(|cause| ValueError::NotYet {
+                    name,
+                    cause: Box::new(cause),
+                }),
         }
     }
 
     /// The value of one Real variable.
-    fn real(&self, var: RealVariable) -> Result<f64, String> {
+    fn real(&self, var: RealVariable) -> Result<f64, ValueError> {
         let value = match var.causality() {
             Causality::Output => {
                 let request = if var == RealVariable::ReserveRequest {
@@ -323,14 +331,14 @@ impl Instance {
                 real_parameter_mut(&mut params, &mut settings, var).map(|v| *v)
             }
         };
-        value.ok_or_else(|| format!("{} has no value here", var.name()))
+        value.ok_or(ValueError::NoValue { name: var.name() })
     }
 
     /// fmi2GetReal.
     pub fn get_real(&self, vrs: &[u32], values: &mut [f64]) -> CallResult {
         for (vr, out) in vrs.iter().zip(values.iter_mut()) {
             let var = known(*vr, RealVariable::from_value_reference, "Real")?;
-            *out = self.real(var).map_err(error)?;
+            *out = self.real(var).map_err(|e| error(e.to_string()))?;
         }
         Ok(Status::Ok)
     }
@@ -344,7 +352,7 @@ impl Instance {
                 Causality::Parameter => integer_parameter_mut(&mut settings, var).map(|v| *v),
                 Causality::Output => self
                     .with_plant(var.name(), |plant| integer_output(var, plant))
-                    .map_err(error)?,
+                    .map_err(|e| error(e.to_string()))?,
                 Causality::Input => None,
             };
             *out = value.ok_or_else(|| error(format!("{} has no value here", var.name())))?;
