@@ -30,6 +30,7 @@ from fmpy import read_model_description
 from aem_electrolyser import cli
 from aem_electrolyser.extras import require
 from aem_electrolyser.hub.driver import HubFMU
+from aem_electrolyser.hub.units import kg_per_nl
 from aem_electrolyser.wind.year import FARM_RATING, farm_power_year
 
 KELVIN = 273.15
@@ -61,7 +62,6 @@ OUTPUTS = [
     "starts",
     "warmStarts",
 ]
-H2_KG_PER_NL = 2.01588e-3 / 22.413969
 
 
 def ambient(t):
@@ -94,9 +94,9 @@ def simulate(fmu, name, reference, modules, bar=None):
     return out
 
 
-def kpis(out):
-    """The week's totals of one hub (keys with units)."""
-    hydrogen = (out["hubH2Produced"][-1] - out["hubH2Produced"][0]) * H2_KG_PER_NL
+def kpis(out, kg):
+    """The week's totals of one hub (keys with units); `kg` per normal litre of hydrogen."""
+    hydrogen = (out["hubH2Produced"][-1] - out["hubH2Produced"][0]) * kg
     grid = out["hubAcEnergy"][-1] - out["hubAcEnergy"][0]
     stack = out["hubEnergy"][-1] - out["hubEnergy"][0]
     starts = out["starts"][-1] - out["starts"][0]
@@ -127,7 +127,7 @@ def write_csv(reference, runs, path):
             w.writerow([f"{x:.8g}" for x in row])
 
 
-def plot(reference, runs, path):
+def plot(reference, runs, path, kg):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -140,9 +140,7 @@ def plot(reference, runs, path):
     for name, out in runs.items():
         axes[0].plot(days, out["hubAcPower"] / 1e3, color=colours[name], lw=0.8, label=f"{name}: from the grid")
         axes[2].plot(days, out["modulesRunning"], color=colours[name], lw=0.8, label=name)
-        axes[3].plot(
-            days, (out["hubH2Produced"] - out["hubH2Produced"][0]) * H2_KG_PER_NL, color=colours[name], label=name
-        )
+        axes[3].plot(days, (out["hubH2Produced"] - out["hubH2Produced"][0]) * kg, color=colours[name], label=name)
         if name != "paper":
             axes[1].plot(
                 days, out["stackTemperature"] - KELVIN, color=colours[name], lw=0.8, label=f"{name}: mean stack"
@@ -190,11 +188,12 @@ def main(argv=None):
         for name in VARIANTS:
             runs[name] = simulate(args.fmu, name, reference, args.modules, bar=bar)
     write_csv(reference, runs, csv_path)
-    plot(reference, runs, png_path)
+    kg = kg_per_nl(args.fmu)
+    plot(reference, runs, png_path, kg)
     if args.quiet:
         return
     print(f"{args.modules} modules, {args.days:g} days, wind {reference.sum() * STEP / 3.6e9:.3f} MWh offered")
-    table = {name: kpis(out) for name, out in runs.items()}
+    table = {name: kpis(out, kg) for name, out in runs.items()}
     width = max(len(k) for k in next(iter(table.values())))
     print(f"{'':{width}}" + "".join(f"{name:>12}" for name in table))
     for key in next(iter(table.values())):

@@ -23,19 +23,12 @@ are those of the FMU driven alone with the same reference. Records <out>/hub_pub
 
 import math
 
-from fmpy import read_model_description
-
 from aem_electrolyser.cli import add_fmu_option, one_of, positive, resolve_fmu, writable_folder
 from aem_electrolyser.hub.dispatch import DISPATCHES, N_MODULES
 from aem_electrolyser.helics import options
 from aem_electrolyser.helics.federate import Federate, report_stream, run_federate
 from aem_electrolyser.hub.driver import HubFMU
-
-
-def kg_per_nl(fmu):
-    """kg per normal litre: the factor of the display unit kg of the FMU's hydrogen unit Nl."""
-    unit = next(u for u in read_model_description(str(fmu)).unitDefinitions if u.name == "Nl")
-    return next(d.factor for d in unit.displayUnits if d.name == "kg")
+from aem_electrolyser.hub.units import kg_per_nl
 
 
 def main():

@@ -10,11 +10,11 @@ from pathlib import Path
 
 import numpy as np
 
-from fmpy import read_model_description
 
 from aem_electrolyser import cli
 from aem_electrolyser.extras import needs
 from aem_electrolyser.hub.dispatch import DISPATCHES, N_MODULES
+from aem_electrolyser.hub.units import kg_per_nl
 from aem_electrolyser.locate import fmu_path
 from aem_electrolyser.wind.farm import farm_power
 
@@ -193,12 +193,6 @@ def simulate(fmu=None, duration=3600, seed=1, dispatch="equal", quiet=True):
     out["vm"] = {net.bus.name[i]: series(b, "Vm[pu]") for i, b in zip(net.bus.index, buses)}
     out["loading"] = {net.line.name[i]: series(line, "loading[%]") for i, line in zip(net.line.index, lines)}
     return out
-
-
-def kg_per_nl(fmu):
-    """The FMU's display unit kg of its hydrogen unit Nl: kg per normal litre."""
-    unit = next(u for u in read_model_description(str(fmu)).unitDefinitions if u.name == "Nl")
-    return next(d.factor for d in unit.displayUnits if d.name == "kg")
 
 
 def write_csv(path, r, kg):
