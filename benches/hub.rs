@@ -176,8 +176,7 @@ fn main() {
         policy,
         hysteresis: 5.0,
         operation: op,
-        compensation: false,
-        thermal: None,
+        ..HubConfig::default()
     };
     let first = Demand::Power(reference[0]);
     let equal = Hub::new(base, config(DispatchPolicy::Equal), first);

@@ -162,6 +162,7 @@ impl SavedState {
             w.f64(x);
         }
         w.u8(r.compensation as u8);
+        w.f64(r.filter_zero);
         w.u8(s.thermal_model as u8);
         w.u32(s.thermal.n_cells as u32);
         for x in thermal_values(&s.thermal) {
@@ -354,6 +355,7 @@ impl SavedState {
                 ffr_trigger: r.finite()?,
                 ffr_duration: r.finite()?,
                 compensation: r.flag()?,
+                filter_zero: r.finite()?,
             },
             thermal_model: r.flag()?,
             thermal: read_thermal(&mut r)?,

@@ -147,6 +147,7 @@ pub fn module_parameter(var: RealVariable) -> Option<ModuleParameter> {
         | DriftBuildUpTime
         | DriftRecoveryTime
         | InitialVoltageDrift
+        | ReserveFilterZero
         | VoltageDrift
         | MaxVoltageDrift
         | WarmStarts => None,
@@ -196,6 +197,7 @@ fn setting_mut(settings: &mut PlantSettings, var: RealVariable) -> Option<&mut f
         DriftBuildUpTime => Some(&mut settings.ageing.drift_build_up_time),
         DriftRecoveryTime => Some(&mut settings.ageing.drift_recovery_time),
         InitialVoltageDrift => Some(&mut settings.ageing.initial_drift),
+        ReserveFilterZero => Some(&mut settings.reserve.filter_zero),
         Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance
         | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Setpoint
         | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower
@@ -278,6 +280,7 @@ pub fn real_input_mut(inputs: &mut Inputs, var: RealVariable) -> Option<&mut f64
         | DriftBuildUpTime
         | DriftRecoveryTime
         | InitialVoltageDrift
+        | ReserveFilterZero
         | VoltageDrift
         | MaxVoltageDrift
         | WarmStarts => None,
@@ -360,6 +363,7 @@ pub fn real_output(var: RealVariable, plant: &Plant, reserve_request: f64) -> Op
         | DriftBuildUpTime
         | DriftRecoveryTime
         | InitialVoltageDrift
+        | ReserveFilterZero
         | AmbientTemperature => None,
     }
 }

@@ -31,7 +31,7 @@ use super::temperature::Z95;
 
 const SECONDS_PER_HOUR: f64 = 3600.0;
 /// Grid of the start search: τb and τr from 1 min to 100 h, log-spaced.
-const GRID: usize = 16;
+const GRID: usize = 8;
 const GRID_RANGE: (f64, f64) = (60.0, 360_000.0);
 /// Fewest nominal running samples.
 const MIN_POINTS: usize = 20;

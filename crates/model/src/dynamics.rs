@@ -17,14 +17,19 @@
 //! instant where it switches is located by a bracketed root search. Everything else is
 //! closed form, so results at common time points do not depend on the step size.
 //!
-//! Reserve compensation (optional, [`CurrentDynamics::with_compensation`]): the setpoint is
-//! pre-filtered by F(s) = (τp2 s + 1)/(τz s + 1), which cancels the slow pole:
-//!   G(s)·F(s) = K/(τp1 s + 1),   i.e. I_tf follows K·u with the fast pole alone.
-//! In modal form the fast mode is driven by K·u/a and the slow one by 0 (τp1·dz1/dt = K·u/a − z1,
-//! τp2·dz2/dt = −z2; I_tf = a·z1 + b·z2). For u held over a step this is the plain step in
-//! shifted states zi' = zi + K·ci with c1 = −(b/a)·u, c2 = u (so a·c1 + b·c2 = 0 and I_tf is
-//! unchanged): the same exact step, rate limit included. A first-order response of a setpoint
-//! inside the window stays inside the window.
+//! Reserve control (optional): the setpoint is pre-filtered by F(s) = (τn s + 1)/(τz s + 1),
+//! which moves the zero of the transfer function from τz to τn:
+//!   G(s)·F(s) = K(τn s + 1)/((τp1 s + 1)(τp2 s + 1)) = K·a'/(τp1 s + 1) + K·b'/(τp2 s + 1),
+//!   a' = (τn − τp1)/(τp2 − τp1),  b' = 1 − a'.
+//! τn = τz is the paper's model (plain droop); τn = τp2 cancels the slow pole
+//! ([`CurrentDynamics::with_compensation`]: G·F = K/(τp1 s + 1), the fast pole alone);
+//! any τn in [τp1, τp2] ([`CurrentDynamics::with_filter_zero`]) lies between them. In modal
+//! form mode i is driven by K·u·ri with r1 = a'/a, r2 = b'/b (τpi·dzi/dt = K·u·ri − zi;
+//! I_tf = a·z1 + b·z2 as ever). For u held over a step this is the plain step in shifted
+//! states zi' = zi + K·u·(1 − ri) (a·(1 − r1) + b·(1 − r2) = 1 − a' − b' = 0, so I_tf is
+//! unchanged): the same exact step, rate limit included. With τn in [τp1, τp2] both weights
+//! a', b' are ≥ 0, so the step response is monotone: a setpoint inside the window keeps the
+//! current inside it.
 
 use super::parameters::Parameters;
 use super::roots::monotone_root;
@@ -85,8 +90,19 @@ pub struct CurrentDynamics {
     k11: f64,
     k22: f64,
     k12: f64,
-    /// Reserve compensation: the slow pole is cancelled by the setpoint pre-filter.
-    compensated: bool,
+    /// The setpoint's pre-filter (the reserve control).
+    filter: SetpointFilter,
+}
+
+/// The setpoint's pre-filter F(s) = (τn s + 1)/(τz s + 1) (see the module's doc).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum SetpointFilter {
+    /// F = 1 (τn = τz): the paper's model.
+    None,
+    /// τn = τp2: the slow pole cancelled.
+    CancelSlowPole,
+    /// Any other τn in [τp1, τp2]: the modes' drive ratios r1 = a'/a, r2 = b'/b.
+    Zero { r1: f64, r2: f64 },
 }
 
 /// What [`CurrentDynamics::advance_with_moments`] was last asked: the dynamics and the bits of
@@ -267,36 +283,81 @@ impl CurrentDynamics {
             k11: 0.5 * a * a * t1,
             k22: 0.5 * b * b * t2,
             k12: 2.0 * a * b / (lambda1 + lambda2),
-            compensated: false,
+            filter: SetpointFilter::None,
         }
     }
 
-    /// The same dynamics with reserve compensation on or off (see the module's doc).
+    /// The same dynamics with reserve compensation on (the slow pole cancelled, τn = τp2) or
+    /// off (the paper's model; see the module's doc).
     pub fn with_compensation(mut self, on: bool) -> Self {
-        self.compensated = on;
+        self.filter = if on {
+            SetpointFilter::CancelSlowPole
+        } else {
+            SetpointFilter::None
+        };
         self
     }
 
-    /// Whether the setpoint pre-filter cancels the slow pole.
-    pub fn is_compensated(&self) -> bool {
-        self.compensated
+    /// The same dynamics with the setpoint pre-filter that puts the zero at `tau_n` [s], which
+    /// must lie in [τp1, τp2] (the caller checks, [`Parameters::filter_zero_range`]); τz is the
+    /// paper's model and τp2 [`Self::with_compensation`], bit for bit.
+    pub fn with_filter_zero(mut self, tau_n: f64) -> Self {
+        let (t1, t2) = (self.tau1, self.tau2);
+        // a', b' as [`Parameters::modal_weights`] computes a, b: τn = τz gives them bit for bit.
+        let (a_n, b_n) = ((tau_n - t1) / (t2 - t1), (t2 - tau_n) / (t2 - t1));
+        self.filter = if tau_n == t2 {
+            SetpointFilter::CancelSlowPole
+        } else if a_n == self.a && b_n == self.b {
+            SetpointFilter::None
+        } else {
+            SetpointFilter::Zero {
+                r1: a_n / self.a,
+                r2: b_n / self.b,
+            }
+        };
+        self
     }
 
-    /// Steady state at a (clamped) setpoint [%]: z1 = z2 = I = K·u; compensated z1 = K·u/a,
-    /// z2 = 0 (I = K·u all the same).
+    /// Whether the setpoint is pre-filtered (the dynamics then take held setpoints only).
+    pub fn is_compensated(&self) -> bool {
+        self.filter != SetpointFilter::None
+    }
+
+    /// Steady state at a (clamped) setpoint [%]: z1 = z2 = I = K·u; pre-filtered zi = K·u·ri
+    /// (slow pole cancelled: z1 = K·u/a, z2 = 0), I = K·u all the same.
     pub fn steady_state(&self, setpoint: f64) -> CurrentState {
         let y = self.gain * setpoint;
-        if self.compensated {
-            return CurrentState {
+        match self.filter {
+            SetpointFilter::None => CurrentState {
+                z1: y,
+                z2: y,
+                current: y,
+            },
+            SetpointFilter::CancelSlowPole => CurrentState {
                 z1: y / self.a,
                 z2: 0.0,
                 current: y,
-            };
+            },
+            SetpointFilter::Zero { r1, r2 } => CurrentState {
+                z1: y * r1,
+                z2: y * r2,
+                current: y,
+            },
         }
-        CurrentState {
-            z1: y,
-            z2: y,
-            current: y,
+    }
+
+    /// The shift K·u·(1 − ri) of each modal state that turns the pre-filtered step at held
+    /// setpoint `u` [%] into the plain one (None without a filter).
+    fn filter_shift(&self, u: f64) -> Option<(f64, f64)> {
+        match self.filter {
+            SetpointFilter::None => None,
+            SetpointFilter::CancelSlowPole => {
+                Some((-self.gain * u * self.b / self.a, self.gain * u))
+            }
+            SetpointFilter::Zero { r1, r2 } => {
+                let y = self.gain * u;
+                Some((y * (1.0 - r1), y * (1.0 - r2)))
+            }
         }
     }
 
@@ -335,7 +396,7 @@ impl CurrentDynamics {
     /// A λ1 e^(−λ1 t) = −B λ2 e^(−λ2 t), if it lies inside) and its integrals. None where the
     /// rate limit may bind, and with compensation.
     pub fn tracking_envelope(&self, state: &CurrentState, u: f64, h: f64) -> Option<Envelope> {
-        if self.compensated || !(h > 0.0) {
+        if self.is_compensated() || !(h > 0.0) {
             return None;
         }
         let step = self.tracking_step(h).step(state, u);
@@ -370,7 +431,7 @@ impl CurrentDynamics {
     /// compensation.
     #[inline]
     pub fn tracked_current(&self, state: &CurrentState, u: f64, t: f64) -> Option<f64> {
-        if self.compensated {
+        if self.is_compensated() {
             return None;
         }
         let base = self.gain * u;
@@ -457,9 +518,8 @@ impl CurrentDynamics {
         h: f64,
         factors: &mut StepFactors,
     ) -> CurrentIntegrals {
-        if self.compensated {
+        if let Some((c1, c2)) = self.filter_shift(u) {
             // The plain step in shifted states (see the module's doc); I_tf is the same in both.
-            let (c1, c2) = (-self.gain * u * self.b / self.a, self.gain * u);
             state.z1 += c1;
             state.z2 += c2;
             let integrals = self.plain().advance(state, u, h, factors);
@@ -527,8 +587,7 @@ impl CurrentDynamics {
         h: f64,
         mu: f64,
     ) -> CurrentIntegrals {
-        if self.compensated {
-            let (c1, c2) = (-self.gain * u * self.b / self.a, self.gain * u);
+        if let Some((c1, c2)) = self.filter_shift(u) {
             state.z1 += c1;
             state.z2 += c2;
             let integrals = self.plain().compute_with_moments(state, u, h, mu);
@@ -539,10 +598,10 @@ impl CurrentDynamics {
         self.advance_segment(state, u, 0.0, h, &self.decay(h), Some(mu))
     }
 
-    /// The same dynamics without compensation.
+    /// The same dynamics without the pre-filter.
     fn plain(&self) -> CurrentDynamics {
         CurrentDynamics {
-            compensated: false,
+            filter: SetpointFilter::None,
             ..*self
         }
     }
@@ -559,7 +618,7 @@ impl CurrentDynamics {
         h: f64,
     ) -> CurrentIntegrals {
         debug_assert!(
-            !self.compensated,
+            !self.is_compensated(),
             "compensated dynamics take held setpoints only"
         );
         self.advance_segment(state, u0, slope, h, &self.decay(h), None)
@@ -575,7 +634,7 @@ impl CurrentDynamics {
         mu: f64,
     ) -> CurrentIntegrals {
         debug_assert!(
-            !self.compensated,
+            !self.is_compensated(),
             "compensated dynamics take held setpoints only"
         );
         self.advance_segment(state, u0, slope, h, &self.decay(h), Some(mu))
@@ -966,6 +1025,9 @@ impl Curve {
         (t > 0.0 && t < self.len).then(|| self.point(t))
     }
 }
+
+#[cfg(test)]
+mod filter_tests;
 
 #[cfg(test)]
 mod tests {

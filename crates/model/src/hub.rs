@@ -46,6 +46,9 @@ pub struct HubConfig {
     /// Reserve compensation: every module's setpoint is pre-filtered so that the slow pole
     /// is cancelled ([`CurrentDynamics::with_compensation`]).
     pub compensation: bool,
+    /// The reserve control's zero τn [s]: every module's setpoint is pre-filtered so that
+    /// its transfer function's zero moves there ([`CurrentDynamics::with_filter_zero`]); 0: none.
+    pub filter_zero: f64,
     /// The stack temperature, if modelled: every module's thermal parameters.
     pub thermal: Option<ThermalParameters>,
 }
@@ -58,6 +61,7 @@ impl Default for HubConfig {
             hysteresis: 5.0,
             operation: OperationParameters::default(),
             compensation: false,
+            filter_zero: 0.0,
             thermal: None,
         }
     }
@@ -228,6 +232,18 @@ impl Hub {
         let mut max_power = 0.0;
         for (params, count) in sets {
             params.validate()?;
+            let (lo, hi) = params.filter_zero_range();
+            if config.filter_zero > 0.0 && !(lo..=hi).contains(&config.filter_zero) {
+                return Err(ParameterError {
+                    name: "reserveFilterZero",
+                    value: config.filter_zero,
+                    requirement: format!(
+                        "must lie between the poles, within [{}, {}] s (tauPole1, tauPole2 of every module)",
+                        super::shown(lo),
+                        super::shown(hi)
+                    ),
+                });
+            }
             if matches!(demand, Demand::Power(_))
                 && params.voltage_intercept == 0.0
                 && params.ohmic_resistance == 0.0
@@ -249,7 +265,11 @@ impl Hub {
                     .max(op.standby_power);
             types.push(ModuleType {
                 count,
-                dynamics: CurrentDynamics::new(&params).with_compensation(config.compensation),
+                dynamics: if config.filter_zero > 0.0 {
+                    CurrentDynamics::new(&params).with_filter_zero(config.filter_zero)
+                } else {
+                    CurrentDynamics::new(&params).with_compensation(config.compensation)
+                },
                 factors: StepFactors::default(),
                 h2_per_coulomb: params.h2_coefficient / SECONDS_PER_HOUR,
                 thermal: config.thermal.map(|thermal| HeatBalance {
@@ -293,6 +313,7 @@ impl Hub {
             // The lanes step the plain dynamics only, without the stack temperature or a drift,
             // and share a power reference by the stack's curve.
             lanes_enabled: !config.compensation
+                && config.filter_zero == 0.0
                 && config.thermal.is_none()
                 && !config.operation.grid.grid_side_reference
                 && !config.operation.ageing.is_on(),

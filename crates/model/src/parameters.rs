@@ -267,6 +267,13 @@ impl Parameters {
         ((tz - t1) / (t2 - t1), (t2 - tz) / (t2 - t1))
     }
 
+    /// Where the reserve control may put the transfer function's zero [s]: between the two
+    /// poles, [min(τp1, τp2), max(τp1, τp2)] (the step response is monotone there).
+    pub fn filter_zero_range(&self) -> (f64, f64) {
+        let (t1, t2) = (self.tau_pole1, self.tau_pole2);
+        (t1.min(t2), t1.max(t2))
+    }
+
     /// ∂a/∂τz, ∂a/∂τp1, ∂a/∂τp2 of the fast mode's weight a [1/s]:
     ///   1/(τp2 − τp1),  (τz − τp2)/(τp2 − τp1)²,  −(τz − τp1)/(τp2 − τp1)².
     pub fn modal_weight_sensitivities(&self) -> (f64, f64, f64) {

@@ -161,6 +161,7 @@ impl PlantSettings {
                 ageing: self.ageing,
             },
             compensation: self.reserve.compensation,
+            filter_zero: self.reserve.filter_zero,
             thermal: None,
         };
         super::hub::validate(&hub)?;

@@ -42,6 +42,9 @@ pub struct ReserveSettings {
     pub ffr_duration: f64,
     /// `reserveCompensation`: the setpoint pre-filter that cancels the slow pole.
     pub compensation: bool,
+    /// `reserveFilterZero` [s]: the setpoint pre-filter that puts the transfer function's zero
+    /// at this time constant, within [τp1, τp2] of every module (0: none).
+    pub filter_zero: f64,
 }
 
 impl Default for ReserveSettings {
@@ -57,6 +60,7 @@ impl Default for ReserveSettings {
             ffr_trigger: 49.7,
             ffr_duration: 30.0,
             compensation: false,
+            filter_zero: 0.0,
         }
     }
 }
@@ -96,11 +100,25 @@ impl ReserveSettings {
                 requirement: "must be > 0 s".into(),
             });
         }
+        if !(self.filter_zero.is_finite() && self.filter_zero >= 0.0) {
+            return Err(ParameterError {
+                name: "reserveFilterZero",
+                value: self.filter_zero,
+                requirement: "must be a finite number >= 0 s (0: no filter)".into(),
+            });
+        }
+        if self.filter_zero > 0.0 && self.compensation {
+            return Err(ParameterError {
+                name: "reserveFilterZero",
+                value: self.filter_zero,
+                requirement: "must be 0 with reserveCompensation = true (that is reserveFilterZero = tauPole2): choose one".into(),
+            });
+        }
         Ok(())
     }
 
-    /// Whether any product is offered or the compensation is on (the plant then holds its
-    /// inputs over a step, as a hub does).
+    /// Whether any product is offered or the setpoint is pre-filtered (the plant then holds
+    /// its inputs over a step, as a hub does).
     pub fn offered(&self) -> bool {
         self.fcr_n > 0.0
             || self.fcr_d_up > 0.0
@@ -108,6 +126,7 @@ impl ReserveSettings {
             || self.fcr > 0.0
             || self.ffr > 0.0
             || self.compensation
+            || self.filter_zero > 0.0
     }
 
     /// ΔP [W] of the proportional products (all but FFR) at frequency `f` [Hz].

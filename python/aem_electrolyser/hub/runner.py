@@ -29,8 +29,10 @@ __all__ = ["Hub", "HubRunner", "MESSAGES"]
 @dataclass(frozen=True)
 class Hub:
     """The hub under test: modules, dispatch (1 equal, 2 sequential), belowMinimum (0 stay at
-    the minimum, 1 standby), baseline as a fraction of rated power, compensation, and further
-    FMU parameters set by name ((name, value) pairs: the grid side, the stack temperature)."""
+    the minimum, 1 standby), baseline as a fraction of rated power, the reserve control
+    (compensation: the slow pole cancelled; or filter_zero > 0: the transfer function's zero
+    moved there [s], the FMU's reserveFilterZero), and further FMU parameters set by name
+    ((name, value) pairs: the grid side, the stack temperature)."""
 
     n_modules: int = 25_000
     dispatch: int = 1
@@ -38,13 +40,20 @@ class Hub:
     baseline: float = 0.8
     compensation: bool = False
     settings: tuple = ()
+    filter_zero: float = 0.0
+
+    def control(self) -> str:
+        """The reserve control in words."""
+        if self.filter_zero > 0:
+            return f"zero at {self.filter_zero:.4g} s"
+        return "compensation on" if self.compensation else "compensation off"
 
     def describe(self) -> str:
         policy = {1: "equal", 2: "sequential", 3: "rotation"}[self.dispatch]
         settings = "".join(f", {name} = {value}" for name, value in self.settings)
         return (
             f"{self.n_modules} modules, {policy} dispatch, baseline {100 * self.baseline:.0f} % of rated power, "
-            f"compensation {'on' if self.compensation else 'off'}{settings}"
+            f"{self.control()}{settings}"
         )
 
 
@@ -127,6 +136,8 @@ class HubRunner:
             else:
                 fmu.setBoolean([v.valueReference], [str(value).lower() == "true"])
         reals = dict(parameters or {})
+        if h.filter_zero > 0:
+            reals["reserveFilterZero"] = h.filter_zero
         reals["powerReference"] = self.baseline if power_reference is None else float(power_reference[0])
         if frequency is not None:
             reals["frequency"] = float(frequency[0])

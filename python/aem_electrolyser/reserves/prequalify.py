@@ -2,7 +2,8 @@
 """Prequalification of an electrolyser hub for frequency reserves, on the packaged FMU.
 
     aem-prequalify [--modules 25000] [--dispatch equal] [--baseline 80]
-        [--compensation both] [--products all] [--parameter NAME=VALUE ...]
+        [--compensation both] [--filter-zero SECONDS,...] [--optimise]
+        [--products all] [--parameter NAME=VALUE ...]
         [--out out/prequalification] [--no-plots]
 
 For each hub (dispatch × baseline, each plain and/or with reserveCompensation) and each product
@@ -24,6 +25,17 @@ smallest capacity tried), each naming the limiting requirement; then <out>/summa
 are comma-separated. Jobs (hub × product) run in parallel processes (--jobs, default one per
 core).
 
+The reserve control is a family: every module's setpoint pre-filtered so that the zero of the
+current's transfer function K(τn s + 1)/((τp1 s + 1)(τp2 s + 1)) sits at τn (the FMU's
+reserveFilterZero), anywhere in [τp1, τp2]; plain droop is τn = τz, reserveCompensation
+τn = τp2. `--filter-zero` assesses given zeros as further hubs. `--optimise` searches, per
+product and per dispatch and baseline, the zero that sells the most (aem_electrolyser.reserves.
+optimise: a grid over [τp1, τp2] holding τz and τp2, then a bracket shrunk by thirds; fixed
+evaluations, no random draw) and writes <out>/optimum.md, .csv and .json: the zero, the
+capacity against plain droop and compensation, the limiting requirement, every other
+requirement's margin at the optimum, and every zero tried; the optimum's report and plots are
+<hub>_<product>_optimum.md and .png.
+
 `--parameter NAME=VALUE` sets any other parameter of the FMU on every hub (repeatable), for
 instance the grid side (auxiliaryPower, supplyNoLoadLoss, supplyLossVoltage,
 supplyLossResistance, and gridSideReference = true: the baseline, the rated power and the
@@ -37,6 +49,7 @@ approval; rules that could not be confirmed are reported as unsure (informative)
 
 import argparse
 import csv
+import json
 import multiprocessing
 import os
 import queue
@@ -49,7 +62,7 @@ from pathlib import Path
 from aem_electrolyser import cli
 from aem_electrolyser.hub.messages import FmuError
 from aem_electrolyser.hub.runner import Hub, HubRunner
-from aem_electrolyser.reserves import assess, report
+from aem_electrolyser.reserves import assess, optimise, report
 from aem_electrolyser.reserves.products import BY_NAME, PRODUCTS
 
 DISPATCH = {"equal": 1, "sequential": 2}
@@ -103,12 +116,19 @@ def percent(fraction: float) -> str:
     return f"{round(100 * fraction, 6):g}"
 
 
+def control_name(hub: Hub) -> str:
+    if hub.filter_zero > 0:
+        return f"zero{hub.filter_zero:.6g}s"
+    return "compensated" if hub.compensation else "plain"
+
+
 def hub_name(hub: Hub) -> str:
-    return f"{POLICY[hub.dispatch]}_{percent(hub.baseline)}pct_{'compensated' if hub.compensation else 'plain'}"
+    return f"{POLICY[hub.dispatch]}_{percent(hub.baseline)}pct_{control_name(hub)}"
 
 
 def hub_label(hub: Hub) -> str:
-    return f"{POLICY[hub.dispatch]} {percent(hub.baseline)} %{' compensated' if hub.compensation else ''}"
+    control = f" zero {hub.filter_zero:.4g} s" if hub.filter_zero > 0 else " compensated" if hub.compensation else ""
+    return f"{POLICY[hub.dispatch]} {percent(hub.baseline)} %{control}"
 
 
 def slug(text: str) -> str:
@@ -185,6 +205,7 @@ def write_summary(out: Path, hubs, products, figures, rated):
                 "capacity before reduction [W]",
                 "reduction factor [1]",
                 "limiting requirement",
+                "reserve filter zero [s]",
             ]
         )
         for name, hub, c in rows:
@@ -199,6 +220,7 @@ def write_summary(out: Path, hubs, products, figures, rated):
                     "" if c.before_reduction_w is None else f"{c.before_reduction_w:.0f}",
                     "" if c.reduction_factor is None else f"{c.reduction_factor:.6g}",
                     c.limiting,
+                    f"{hub.filter_zero:.6g}" if hub.filter_zero > 0 else "",
                 ]
             )
     lines = [
@@ -249,6 +271,20 @@ def baselines(text):
     return list(dict.fromkeys(values))
 
 
+def zeros(text):
+    """Comma-separated zeros [s], each finite and > 0."""
+    values = []
+    for item in [x.strip() for x in text.split(",") if x.strip()] or [text]:
+        try:
+            value = float(item)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{item!r} is not a number of seconds") from None
+        if not (value > 0 and value < float("inf")):
+            raise argparse.ArgumentTypeError(f"each must be a time constant > 0 s, not {item}")
+        values.append(value)
+    return list(dict.fromkeys(values))
+
+
 def parser():
     names = [p.name for p in PRODUCTS]
     p = cli.CommandLine(description=__doc__)
@@ -272,6 +308,19 @@ def parser():
         type=cli.one_of(("off", "on", "both")),
         default="both",
         help="reserveCompensation: off, on or both [default: both]",
+    )
+    p.add_argument(
+        "--filter-zero",
+        type=zeros,
+        default=[],
+        metavar="SECONDS,...",
+        help="further hubs whose reserve control puts the transfer function's zero here "
+        "(reserveFilterZero, within [tauPole1, tauPole2]), comma-separated",
+    )
+    p.add_argument(
+        "--optimise",
+        action="store_true",
+        help="search per product the zero that sells the most (writes optimum.md, .csv, .json)",
     )
     p.add_argument(
         "--products",
@@ -307,6 +356,7 @@ OWN_PARAMETERS = {
     "belowMinimum",
     "powerInput",
     "reserveCompensation",
+    "reserveFilterZero",
     "fcrNCapacity",
     "fcrDUpCapacity",
     "fcrDDownCapacity",
@@ -407,6 +457,137 @@ def _show_steps(steps, bar):
         )
 
 
+# --- the reserve control that sells the most -----------------------------------------------------
+
+
+def time_constants(args):
+    """(τz, τp1, τp2) [s] of the hubs: the FMU's start values under --parameter."""
+    from fmpy import read_model_description
+
+    start = {v.name: v.start for v in read_model_description(str(args.fmu)).modelVariables}
+    value = {**{n: float(start[n]) for n in ("tauZero", "tauPole1", "tauPole2")}, **dict(args.settings)}
+    return tuple(float(value[n]) for n in ("tauZero", "tauPole1", "tauPole2"))
+
+
+def control_hub(args, d, base, zero, taus):
+    """The hub whose reserve control puts the zero at `zero` [s]: at τz plain droop, at the slow
+    pole τp2 compensation (the same dynamics bit for bit, and jobs the plain run may have done)."""
+    tau_zero, _, tau_slow = taus
+    if zero == tau_zero:
+        return Hub(args.modules, DISPATCH[d], 0, base, False, args.settings)
+    if zero == tau_slow:
+        return Hub(args.modules, DISPATCH[d], 0, base, True, args.settings)
+    return Hub(args.modules, DISPATCH[d], 0, base, False, args.settings, zero)
+
+
+def optimise_controls(args, products, done, taus):
+    """{(dispatch, baseline, product name): (optimise.Search, the best hub)} over the reserve
+    control's zero in [τp1, τp2]; every job run lands in `done`."""
+    tau_zero, t1, t2 = taus
+    found = {}
+    for d in args.dispatch:
+        for base in args.baseline:
+            for product in products:
+
+                def capacities(zs, d=d, base=base, product=product):
+                    keys = [(control_hub(args, d, base, z, taus), product.name) for z in zs]
+                    todo = [k for k in keys if k not in done]
+                    if todo:
+                        done.update(run_jobs(args, todo))
+                    return [done[k][0].sellable for k in keys]
+
+                search = optimise.search(capacities, min(t1, t2), max(t1, t2), known=(tau_zero, t2))
+                found[(d, base, product.name)] = (search, control_hub(args, d, base, search.best.zero, taus))
+    return found
+
+
+def write_optimum(args, optimum, done, rated):
+    """optimum.md, .csv and .json, and each optimum's report and plots."""
+    rows = []
+    for (d, base, name), (found, best) in optimum.items():
+        product = BY_NAME[name]
+        result, at, above, _ = done[(best, name)]
+        section = assess.section(product, result, at, above)
+        c = report.capacity(section, rated)
+        stem = f"{hub_name(best)}_{slug(name)}_optimum"
+        run = assess.shown(result, at, above)
+        if not args.no_plots and run is not None:
+            section.plots = plot_product(args.out, stem, product, c, result, run, f"{name}, {hub_label(best)}")
+        report.write_report(
+            args.out, stem, [section], f"Reserve prequalification (model-based): {best.describe()}", rated
+        )
+        ends = {}
+        for compensation in (False, True):
+            key = (Hub(args.modules, DISPATCH[d], 0, base, compensation, args.settings), name)
+            ends[compensation] = done[key][0].sellable if key in done else None
+        margins = (
+            sorted(
+                ((r.name, optimise.margin(r)) for r in result.at_capacity if r.status != "UNSURE"),
+                key=lambda x: x[1],
+            )
+            if result.capacity > 0
+            else []
+        )
+        rows.append(
+            {
+                "product": name,
+                "dispatch": d,
+                "baseline [% of rated]": percent(base),
+                "zero [s]": found.best.zero,
+                "capacity [W]": found.best.capacity,
+                "plain droop [W]": ends[False],
+                "compensated [W]": ends[True],
+                "limiting requirement": c.limiting,
+                "limiting detail": c.detail,
+                "margins at the optimum [1]": margins,
+                "tried [(s, W)]": found.table(),
+            }
+        )
+    with open(args.out / "optimum.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        keys = [k for k in rows[0] if k not in ("margins at the optimum [1]", "tried [(s, W)]", "limiting detail")]
+        w.writerow(keys)
+        for row in rows:
+            w.writerow(
+                ["" if row[k] is None else (f"{row[k]:.6g}" if isinstance(row[k], float) else row[k]) for k in keys]
+            )
+    (args.out / "optimum.json").write_text(json.dumps(rows, indent=2) + "\n")
+    cell = lambda w: "–" if w is None else power_text(w)  # noqa: E731
+    lines = [
+        f"# The reserve control that sells the most (rated power {rated / 1e6:.4g} MW)",
+        "",
+        f"**{report.DISCLAIMER}**",
+        "",
+        "Per product, the zero τn of K(τn s + 1)/((τp1 s + 1)(τp2 s + 1)) (the FMU's reserveFilterZero) "
+        "with the largest capacity, against plain droop (τn = τz) and compensation (τn = τp2); the "
+        "requirement that binds, and the margin of every other one at the optimum (measured value's "
+        "distance inside its limit, relative to the limit).",
+        "",
+        "| product | dispatch | baseline | zero | capacity | plain droop | compensated | limiting requirement | "
+        "closest margins |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for row in rows:
+        close = ", ".join(f"{n} {m:+.1%}" for n, m in row["margins at the optimum [1]"][:3]) or "–"
+        lines.append(
+            f"| {row['product']} | {row['dispatch']} | {row['baseline [% of rated]']} % | {row['zero [s]']:.4g} s | "
+            f"{power_text(row['capacity [W]'])} | {cell(row['plain droop [W]'])} | {cell(row['compensated [W]'])} | "
+            f"{row['limiting detail'].replace('|', '/')} | {close.replace('|', '/')} |"
+        )
+    lines += ["", "Zeros tried (s: capacity):", ""]
+    for row in rows:
+        tried = ", ".join(f"{z:.4g}: {power_text(c)}" for z, c in row["tried [(s, W)]"])
+        lines.append(f"- {row['product']}, {row['dispatch']} {row['baseline [% of rated]']} %: {tried}")
+    (args.out / "optimum.md").write_text("\n".join(lines) + "\n")
+    for row in rows:
+        cli.say(
+            args,
+            f"optimum {row['product']:<16} {row['dispatch']} {row['baseline [% of rated]']} %: zero {row['zero [s]']:.4g} s, "
+            f"{power_text(row['capacity [W]'])} (plain {cell(row['plain droop [W]'])}, compensated "
+            f"{cell(row['compensated [W]'])}); limiting: {row['limiting requirement']}",
+        )
+
+
 def main(argv=None):
     p = parser()
     args = p.parse_args(argv)
@@ -416,14 +597,28 @@ def main(argv=None):
     cli.writable_folder(args.out)
     products = [BY_NAME[n] for n in args.products]
     modes = {"off": [False], "on": [True], "both": [False, True]}[args.compensation]
+    taus = time_constants(args)
+    lo, hi = min(taus[1:]), max(taus[1:])
+    for z in args.filter_zero:
+        if not lo <= z <= hi:
+            p.error(
+                f"--filter-zero: {z:g} s lies outside [{lo:g}, {hi:g}] s (tauPole1, tauPole2): "
+                "the zero must lie between the poles"
+            )
     hubs = [
         Hub(args.modules, DISPATCH[d], 0, base, c, args.settings)
         for d in args.dispatch
         for base in args.baseline
         for c in modes
+    ] + [
+        Hub(args.modules, DISPATCH[d], 0, base, False, args.settings, z)
+        for d in args.dispatch
+        for base in args.baseline
+        for z in args.filter_zero
     ]
     start = time.perf_counter()
     done = run_jobs(args, [(hub, p_.name) for hub in hubs for p_ in products])
+    optimum = optimise_controls(args, products, done, taus) if args.optimise else None
     elapsed = time.perf_counter() - start
     rated = next(iter(done.values()))[3]
     figures = {}
@@ -444,6 +639,8 @@ def main(argv=None):
             args.out, stem, sections, f"Reserve prequalification (model-based): {hub.describe()}", rated
         )
     rows = write_summary(args.out, hubs, products, figures, rated)
+    if optimum is not None:
+        write_optimum(args, optimum, done, rated)
     cli.say(args, f"{'product':<16} {'hub':<24} {'capacity':<34} limiting requirement")
     for name, hub, c in rows:
         k = f", K_red {c.reduction_factor:.3f}" if c.reduction_factor is not None else ""

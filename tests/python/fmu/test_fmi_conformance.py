@@ -114,7 +114,7 @@ FMUTOOL = Path(sys.executable).with_name("fmutool")
 # Serialised FMU state (src/fmi2/fmu_state.rs, format 9): magic(8) version(4) payload length(4)
 # payload crc32(4); payload = GUID length(4) GUID, FMI state code, excursion and stop-time flags
 # (1 each), 11 f64 parameters (gain first), 4 u32 and 1 u8 hub settings, 8 f64 hub settings,
-# 7 f64 and 1 u8 reserve settings, the thermal model's u8 switch, u32 nCells and 10 f64, the grid
+# 7 f64, 1 u8 and 1 f64 reserve settings, the thermal model's u8 switch, u32 nCells and 10 f64, the grid
 # side's u8 switch and 4 f64, the ageing's 6 f64, 7 f64 (setpoint, powerReference, frequency, ambientTemperature,
 # setpoint slope, time, stop time), the module parameter file (u32 length, here 0, and its
 # bytes), a flag and a u32 count of parameter sets (here none), the reserves' state (u8 FFR
@@ -130,6 +130,7 @@ STATE_AFTER_PARAMETERS = (
     + 8 * 8
     + 8 * 7
     + 1
+    + 8
     + (1 + 4 + 8 * 10)
     + (1 + 8 * 4)
     + 8 * 6
