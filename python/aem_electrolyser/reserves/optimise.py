@@ -33,7 +33,7 @@ class Candidate:
 
 @dataclass
 class Search:
-    """The best control found and every one tried (in the order tried)."""
+    """The best control found and every one tried (in the order tried, each once)."""
 
     best: Candidate
     tried: list = field(default_factory=list)
@@ -66,12 +66,16 @@ def search(
     capacity [W] of each zero (the caller may evaluate them in parallel). Ties go to the
     candidate tried first, the grid in ascending order, so the answer is reproducible."""
     tried: list[Candidate] = []
+    known_capacity: dict = {}
 
     def evaluate(zeros):
-        values = list(capacities(list(zeros)))
-        new = [Candidate(z, float(c)) for z, c in zip(zeros, values)]
-        tried.extend(new)
-        return new
+        """Each zero's candidate, asking `capacities` only for zeros not tried before."""
+        new = [z for z in dict.fromkeys(zeros) if z not in known_capacity]
+        if new:
+            for z, c in zip(new, capacities(new)):
+                known_capacity[z] = float(c)
+                tried.append(Candidate(z, float(c)))
+        return [Candidate(z, known_capacity[z]) for z in zeros]
 
     points = evaluate(grid(lo, hi, n_grid, known))
     best = max(points, key=lambda c: c.capacity)

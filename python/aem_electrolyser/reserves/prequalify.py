@@ -560,8 +560,9 @@ def write_optimum(args, optimum, done, rated):
         "",
         "Per product, the zero τn of K(τn s + 1)/((τp1 s + 1)(τp2 s + 1)) (the FMU's reserveFilterZero) "
         "with the largest capacity, against plain droop (τn = τz) and compensation (τn = τp2); the "
-        "requirement that binds, and the margin of every other one at the optimum (measured value's "
-        "distance inside its limit, relative to the limit).",
+        "requirement that binds, and the margins at the optimum: each measured value's distance inside "
+        "its limit, relative to the limit, at the capacity tested before any reduction factor (a "
+        "requirement that the reduction factor covers shows a negative margin).",
         "",
         "| product | dispatch | baseline | zero | capacity | plain droop | compensated | limiting requirement | "
         "closest margins |",
