@@ -223,13 +223,18 @@ impl View {
         }
     }
 
-    /// Whether fmi2ExitInitializationMode succeeds: valid parameters and settings, and a
-    /// power reference needs a polarisation curve that draws power.
+    /// Whether fmi2ExitInitializationMode succeeds: valid parameters and settings, a power
+    /// reference needs a polarisation curve that draws power, and the reserve control's zero
+    /// lies between the module's poles.
     fn initialisable(&self) -> bool {
         let p = &self.params;
         let power_without_curve =
             self.settings.power_input && p.voltage_intercept == 0.0 && p.ohmic_resistance == 0.0;
-        p.validate().is_ok()
+        let (lo, hi) = p.filter_zero_range();
+        let zero = self.settings.reserve.filter_zero;
+        let zero_between_poles = !(zero > 0.0) || (lo..=hi).contains(&zero);
+        zero_between_poles
+            && p.validate().is_ok()
             && self.file.is_empty()
             && self
                 .settings
