@@ -2,6 +2,7 @@
 the largest C that passes, by bisection up to what the operating window allows.
 """
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,6 +35,16 @@ class Run:
 SINE_STEPS_PER_PERIOD = 500
 
 
+def sine_step(period: float, dt: float) -> float:
+    """The sine test's step [s]: at most `dt` and period/SINE_STEPS_PER_PERIOD, and a whole
+    fraction of the period (so that the test ends on its grid)."""
+    step = min(dt, period / SINE_STEPS_PER_PERIOD)
+    steps = period / step
+    if abs(steps - round(steps)) <= 1e-9 * steps:
+        return step
+    return period / math.ceil(steps)
+
+
 def full_activation_tolerance(capacity: float) -> float:
     """What "full activation" may lack, as a fraction of C: the power-measurement accuracy of
     the Nordic test programme (NTP Table 1): 5 % below 1.5 MW, 1 % up to 10 MW, 0.5 % above.
@@ -56,7 +67,7 @@ def run_product(runner: HubRunner, product: Product, capacity: float, dt: float 
     if product.sine is None or failing(out.results, product.use_reduction):
         return out
     for period in signals.sine_periods(product.sine):
-        signal = signals.sine_test(product.sine, period, min(dt, period / SINE_STEPS_PER_PERIOD))
+        signal = signals.sine_test(product.sine, period, sine_step(period, dt))
         t = trace(runner, signal, capacity, parameters)
         out.points.append(frequency_domain.sine_point(t, capacity, signal))
     if out.points:

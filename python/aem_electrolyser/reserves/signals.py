@@ -17,6 +17,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Optional
 
+import math
+
 import numpy as np
 
 UP, DOWN, BOTH = 1, -1, 0
@@ -280,6 +282,8 @@ def sine_test(
     if nt < ns:
         raise ValueError("n_total < n_stationary")
     fc = SINE_CENTRE[product]
+    if abs(round(settle / dt) * dt - settle) > 1e-9 * settle:
+        settle = math.ceil(settle / dt) * dt  # the lead-in ends on the step grid
     end = settle + nt * period
     t = grid(end, dt)
     ts = np.clip(t - settle, 0.0, None)

@@ -591,3 +591,17 @@ def test_bisection_tries_at_most_most_steps(upper):
         tried.append, lambda x, c: [ev.check("never", 1, "", None, 0, "", source="t")], upper=upper, rated_power=1e6
     )
     assert len(tried) == bisection.most_steps(upper, 1e6)
+
+
+def test_the_sine_tests_step_divides_the_period_whatever_the_step_asked_for():
+    """--dt 0.2 once failed on the 70 s period (70/0.14 steps is whole, 60 s of lead-in is not)."""
+    from aem_electrolyser.reserves.assess import SINE_STEPS_PER_PERIOD, sine_step
+    from aem_electrolyser.reserves.signals import sine_test
+
+    for dt in (0.1, 0.2, 0.3, 0.07):
+        for period in (10.0, 15.0, 25.0, 40.0, 70.0, 150.0, 300.0):
+            step = sine_step(period, dt)
+            assert step <= min(dt, period / SINE_STEPS_PER_PERIOD) * (1 + 1e-12)
+            assert abs(period / step - round(period / step)) < 1e-9 * period / step
+            signal = sine_test("FCR-D up", period, step)  # raises if the test leaves its grid
+            assert signal.t[-1] >= signal.marks["eval"][1] - 1e-9
