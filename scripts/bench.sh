@@ -21,5 +21,8 @@ bash benches/identify_bench.sh
 echo "== prequalification of the 25 000-module hub: every product, plain and compensated, with bisection"
 .venv/bin/aem-prequalify --modules 25000 --dispatch equal --baseline 80 --compensation both \
   --no-plots --out target/bench/prequalification | tail -1
+echo "== the reserve control that sells the most upward FCR-D, 25 000 modules (target <= 5 min)"
+.venv/bin/aem-prequalify --modules 25000 --dispatch equal --baseline 80 --compensation both \
+  --products "FCR-D up" --optimise --no-plots --out target/bench/optimise | tail -1
 echo "== aem-study: a year at 1 s of the 60 MW hub per scenario, scenarios per hour serial and on a LocalCluster, the NREL peer"
 .venv/bin/python benches/study_bench.py
