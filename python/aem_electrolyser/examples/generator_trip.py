@@ -43,10 +43,13 @@ load flow, so the system is in equilibrium before the trip. The trip comes right
 exchange at its instant. It shifts the bus voltage angles at once, which the PLL reads as a
 frequency spike at B12 (-34 mHz, decaying with the PLL's 50 ms) that stays above 49.9 Hz.
 
-Three runs: no reserve (capacities 0), FCR-D up (fcrDUpCapacity = C: the hub draws
-C * clamp((49.9 - f)/0.4, 0, 1) less) and the same with reserveCompensation = true (the
+Four runs: no reserve (capacities 0), FCR-D up (fcrDUpCapacity = C: the hub draws
+C * clamp((49.9 - f)/0.4, 0, 1) less), the same with reserveCompensation = true (the
 current follows K/(tau_p1 s + 1), tau_p1 = 2 s, instead of 84 % on tau_p1 and the rest on
-tau_p2 = 114 s). Per run: the first dip (lowest frequency at B12 within 5 s of the trip), the
+tau_p2 = 114 s), and the same with the reserve control that sells the most upward FCR-D
+(reserveFilterZero = 79.2 s, the zero aem-prequalify --optimise finds for the paper's module at
+80 % baseline: 69 % on tau_p1, a slower response than plain droop that the stability
+requirement allows more of). Per run: the first dip (lowest frequency at B12 within 5 s of the trip), the
 nadir (lowest of the run), the largest RoCoF (steepest fall over any 500 ms window, divided by
 0.5 s), the settling time (from the trip until the frequency stays within +-`--band` mHz,
 default 10, of its final value, the mean of the last second) and the hub's power before, 7.5 s
@@ -77,10 +80,14 @@ VSC_T_PLL = 0.02  # s: the hub VSC's angle filter (grid_cosim: 0.1 s); see the d
 ROCOF_WINDOW = 0.5  # s
 FIRST_DIP_WINDOW = 5.0  # s after the trip
 T_COMPARE = 7.5  # s after the trip: hub power of the plain and compensated runs
-RUNS = {  # name: (offers FCR-D up, reserveCompensation)
-    "no reserve": (False, False),
-    "FCR-D up": (True, False),
-    "FCR-D up, compensated": (True, True),
+#: The zero of the reserve control that sells the most upward FCR-D at 80 % baseline [s]
+#: (aem-prequalify --optimise with Table I; docs/grid-services.md).
+FILTER_ZERO = 79.2
+RUNS = {  # name: (offers FCR-D up, reserveCompensation, reserveFilterZero [s])
+    "no reserve": (False, False, 0.0),
+    "FCR-D up": (True, False, 0.0),
+    "FCR-D up, compensated": (True, True, 0.0),
+    "FCR-D up, zero 79 s": (True, False, FILTER_ZERO),
 }
 TABLE_HEADER = [
     "run",
@@ -163,9 +170,11 @@ def run_case(
     hub_factory=HubFMU,
     name="hub",
     bar=None,
+    filter_zero=0.0,
 ):
     """One co-simulation; returns a dict of arrays sampled at every TOPS step (after the step);
-    `bar` (tqdm) advances by the simulated seconds."""
+    `bar` (tqdm) advances by the simulated seconds; `filter_zero` > 0: the reserve control's
+    zero [s] (reserveFilterZero)."""
     import tops.dynamic as dps
     import tops.solvers as dps_sol
 
@@ -178,6 +187,7 @@ def run_case(
         belowMinimum=0,
         fcrDUpCapacity=capacity,
         reserveCompensation=compensation,
+        **({"reserveFilterZero": filter_zero} if filter_zero > 0 else {}),
     )
     try:
         hub.initialize(powerReference=p_ref, frequency=F_N)
@@ -228,6 +238,7 @@ def run_case(
         p_ref=p_ref,
         capacity=capacity,
         compensation=compensation,
+        filter_zero=filter_zero,
         trip_time=trip_time,
         tripped=tripped_mw * 1e6 if tripped_mw is not None else 0.0,
     )
@@ -302,7 +313,7 @@ def plot(path, cases, n_modules):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    colors = dict(zip(RUNS, ["tab:gray", "tab:blue", "tab:red"]))
+    colors = dict(zip(RUNS, ["tab:gray", "tab:blue", "tab:red", "tab:green"]))
     fig, ax = plt.subplots(4, 1, figsize=(9, 10), sharex=True)
     base = cases["no reserve"]
     for name, o in cases.items():
@@ -399,8 +410,9 @@ def run(
                 hub_factory=hub_factory,
                 name="hub_" + name.replace(" ", "_").replace(",", ""),
                 bar=bar,
+                filter_zero=zero,
             )
-            for name, (offers, compensation) in RUNS.items()
+            for name, (offers, compensation, zero) in RUNS.items()
         }
     table = {name: metrics(o, band) for name, o in cases.items()}
     if out is not None:
