@@ -130,10 +130,7 @@ fn walk(log: &ModuleLog, options: &PolarisationOptions) -> Walk {
             }
             w.length.push(length);
             w.running.push(through);
-            let nominal = temperature.is_none_or(|x| {
-                (x[r] - options.temperature).abs() <= options.temperature_tolerance
-            }) && pressure
-                .is_none_or(|p| (p[r] - options.pressure).abs() <= options.pressure_tolerance);
+            let nominal = options.is_nominal(temperature, pressure, r);
             if let (true, true, Some(v)) = (on && carries, nominal, voltage) {
                 w.used
                     .push((w.length.len() - 1, current[r], v[r], hours, starts));

@@ -37,6 +37,20 @@ impl Default for PolarisationOptions {
     }
 }
 
+impl PolarisationOptions {
+    /// Whether row `r` is at nominal conditions: its temperature and pressure within their
+    /// tolerances, where the log has them.
+    pub fn is_nominal(
+        &self,
+        temperature: Option<&[f64]>,
+        pressure: Option<&[f64]>,
+        r: usize,
+    ) -> bool {
+        !(temperature.is_some_and(|t| (t[r] - self.temperature).abs() > self.temperature_tolerance)
+            || pressure.is_some_and(|p| (p[r] - self.pressure).abs() > self.pressure_tolerance))
+    }
+}
+
 /// The fitted polarisation curve.
 #[derive(Clone, Debug)]
 pub struct PolarisationFit {
@@ -90,11 +104,7 @@ pub fn fit_polarisation(
                 continue;
             }
             candidates += 1;
-            if temperature
-                .is_some_and(|t| (t[r] - options.temperature).abs() > options.temperature_tolerance)
-                || pressure
-                    .is_some_and(|p| (p[r] - options.pressure).abs() > options.pressure_tolerance)
-            {
+            if !options.is_nominal(temperature, pressure, r) {
                 continue;
             }
             if n == 0 {

@@ -518,14 +518,8 @@ impl CurrentDynamics {
         h: f64,
         factors: &mut StepFactors,
     ) -> CurrentIntegrals {
-        if let Some((c1, c2)) = self.filter_shift(u) {
-            // The plain step in shifted states (see the module's doc); I_tf is the same in both.
-            state.z1 += c1;
-            state.z2 += c2;
-            let integrals = self.plain().advance(state, u, h, factors);
-            state.z1 -= c1;
-            state.z2 -= c2;
-            return integrals;
+        if let Some(shift) = self.filter_shift(u) {
+            return self.shifted(state, shift, |plain, s| plain.advance(s, u, h, factors));
         }
         if factors.h != h {
             let decay = self.decay(h);
@@ -587,15 +581,29 @@ impl CurrentDynamics {
         h: f64,
         mu: f64,
     ) -> CurrentIntegrals {
-        if let Some((c1, c2)) = self.filter_shift(u) {
-            state.z1 += c1;
-            state.z2 += c2;
-            let integrals = self.plain().compute_with_moments(state, u, h, mu);
-            state.z1 -= c1;
-            state.z2 -= c2;
-            return integrals;
+        if let Some(shift) = self.filter_shift(u) {
+            return self.shifted(state, shift, |plain, s| {
+                plain.compute_with_moments(s, u, h, mu)
+            });
         }
         self.advance_segment(state, u, 0.0, h, &self.decay(h), Some(mu))
+    }
+
+    /// `step` of the plain dynamics in the modal states shifted by (c1, c2) (see the module's
+    /// doc; I_tf is the same in both), the shift taken off again afterwards.
+    #[inline]
+    fn shifted(
+        &self,
+        state: &mut CurrentState,
+        (c1, c2): (f64, f64),
+        step: impl FnOnce(&CurrentDynamics, &mut CurrentState) -> CurrentIntegrals,
+    ) -> CurrentIntegrals {
+        state.z1 += c1;
+        state.z2 += c2;
+        let integrals = step(&self.plain(), state);
+        state.z1 -= c1;
+        state.z2 -= c2;
+        integrals
     }
 
     /// The same dynamics without the pre-filter.
