@@ -13,6 +13,14 @@
 # target/release/ build of yours).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# A full run writes about 10 GB (the two platforms' builds, the fuzzers', .venv, the tests'
+# temporary files); on a fuller disk builds and importers fail in ways that say nothing of why.
+need_gb=12
+free_gb=$(( $(df --output=avail -k . /tmp | tail -n +2 | sort -n | head -1) / 1048576 ))
+if [ "$free_gb" -lt "$need_gb" ]; then
+  echo "test.sh: $free_gb GB free on the checkout's or /tmp's file system; a full run needs $need_gb GB" >&2
+  exit 1
+fi
 phase() {
   local started=$SECONDS
   "$@"

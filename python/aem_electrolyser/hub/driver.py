@@ -12,6 +12,7 @@ Enumeration, Boolean), so the FMU's variable names are the only interface.
 """
 
 import shutil
+import weakref
 
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
@@ -30,6 +31,8 @@ class HubFMU:
         if missing:
             raise ValueError(f"{fmu_path} has no hub variables {missing}: an older FMU?")
         self._unzipdir = extract(str(fmu_path))
+        # Removed by close(), or when the object is collected or the interpreter exits.
+        self._remove_unzipdir = weakref.finalize(self, shutil.rmtree, self._unzipdir, ignore_errors=True)
         self.fmu = FMU2Slave(
             guid=md.guid,
             unzipDirectory=self._unzipdir,
@@ -93,7 +96,7 @@ class HubFMU:
             except FMICallException:
                 pass  # an instance in error ends with freeInstance alone; its refusal was raised
         self.fmu.freeInstance()
-        shutil.rmtree(self._unzipdir, ignore_errors=True)
+        self._remove_unzipdir()
 
     def __enter__(self):
         return self

@@ -13,6 +13,7 @@ printed.
 import ctypes
 import math
 import shutil
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,6 +66,8 @@ class HubRunner:
         self.md = read_model_description(str(self.fmu_path))
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.unzipdir = extract(str(self.fmu_path))
+        # Removed by close(), or when the runner is collected or the interpreter exits.
+        self._remove_unzipdir = weakref.finalize(self, shutil.rmtree, self.unzipdir, ignore_errors=True)
         value = dict(hub.settings)
         names = ("gain", "voltageIntercept", "ohmicResistance", "maxSetpoint", "minSetpoint", "standbyPower")
         losses = ("supplyNoLoadLoss", "supplyLossVoltage", "supplyLossResistance", "auxiliaryPower")
@@ -93,7 +96,7 @@ class HubRunner:
         self.baseline = hub.baseline * self.rated_power
 
     def close(self):
-        shutil.rmtree(self.unzipdir, ignore_errors=True)
+        self._remove_unzipdir()
 
     def run(self, t, frequency=None, power_reference=None, parameters=None):
         """The power assessed (hubPower, or hubAcPower on the grid side) and reserveRequest [W]

@@ -17,6 +17,7 @@ property for them), so the hubs' dispatch is set through the FMU packaged with
 import csv
 import subprocess
 import sys
+import tempfile
 import zipfile
 
 import numpy as np
@@ -62,11 +63,16 @@ def fleet():
 
 def fmpy_run(fmu_path, integers, schedule, stop, sample_every=1):
     """One instance alone through fmpy: outputs after initialisation and every `sample_every` steps."""
-    md = read_model_description(str(fmu_path))
+    with tempfile.TemporaryDirectory() as unzipdir:
+        extract(str(fmu_path), unzipdir)
+        return _fmpy_run(read_model_description(str(fmu_path)), unzipdir, integers, schedule, stop, sample_every)
+
+
+def _fmpy_run(md, unzipdir, integers, schedule, stop, sample_every):
     vr = {v.name: v.valueReference for v in md.modelVariables}
     fmu = FMU2Slave(
         guid=md.guid,
-        unzipDirectory=extract(str(fmu_path)),
+        unzipDirectory=unzipdir,
         modelIdentifier=md.coSimulation.modelIdentifier,
         instanceName="alone",
     )
