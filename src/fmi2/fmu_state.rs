@@ -24,7 +24,7 @@ use super::variables::Inputs;
 /// The first bytes of every serialised state.
 pub const MAGIC: &[u8; 8] = b"AEMFMUST";
 /// Version of the serialised format; bump it whenever the payload changes.
-pub const FORMAT_VERSION: u32 = 9;
+pub const FORMAT_VERSION: u32 = 10;
 const SAVED_MAGIC: u64 = 0x4145_4d5f_5354_4154; // "AEM_STAT"
 const PLANT_NONE: u8 = 0;
 const PLANT_MODULE: u8 = 1;
@@ -146,6 +146,7 @@ impl SavedState {
             s.standby_duration,
             s.stop_duration,
             s.parameter_spread,
+            s.dispatch_target,
         ] {
             w.f64(x);
         }
@@ -328,7 +329,7 @@ impl SavedState {
             r.u32()? as i32,
         );
         let power_input = r.flag()?;
-        let mut x = [0.0; 8];
+        let mut x = [0.0; 9];
         for v in x.iter_mut() {
             *v = r.finite()?;
         }
@@ -345,6 +346,7 @@ impl SavedState {
             standby_duration: x[5],
             stop_duration: x[6],
             parameter_spread: x[7],
+            dispatch_target: x[8],
             spread_seed,
             reserve: ReserveSettings {
                 fcr_n: r.finite()?,

@@ -148,6 +148,7 @@ pub fn module_parameter(var: RealVariable) -> Option<ModuleParameter> {
         | DriftRecoveryTime
         | InitialVoltageDrift
         | ReserveFilterZero
+        | DispatchTargetSetpoint
         | VoltageDrift
         | MaxVoltageDrift
         | WarmStarts => None,
@@ -198,6 +199,7 @@ fn setting_mut(settings: &mut PlantSettings, var: RealVariable) -> Option<&mut f
         DriftRecoveryTime => Some(&mut settings.ageing.drift_recovery_time),
         InitialVoltageDrift => Some(&mut settings.ageing.initial_drift),
         ReserveFilterZero => Some(&mut settings.reserve.filter_zero),
+        DispatchTargetSetpoint => Some(&mut settings.dispatch_target),
         Gain | TauZero | TauPole1 | TauPole2 | RampUpLimit | VoltageIntercept | OhmicResistance
         | H2Coefficient | NominalCurrent | MinSetpoint | MaxSetpoint | Setpoint
         | PowerReference | Current | Voltage | Power | H2Flow | Energy | H2Produced | HubPower
@@ -281,6 +283,7 @@ pub fn real_input_mut(inputs: &mut Inputs, var: RealVariable) -> Option<&mut f64
         | DriftRecoveryTime
         | InitialVoltageDrift
         | ReserveFilterZero
+        | DispatchTargetSetpoint
         | VoltageDrift
         | MaxVoltageDrift
         | WarmStarts => None,
@@ -364,6 +367,7 @@ pub fn real_output(var: RealVariable, plant: &Plant, reserve_request: f64) -> Op
         | DriftRecoveryTime
         | InitialVoltageDrift
         | ReserveFilterZero
+        | DispatchTargetSetpoint
         | AmbientTemperature => None,
     }
 }
@@ -453,7 +457,8 @@ mod tests {
             [
                 ("equal", DispatchPolicy::Equal as i32),
                 ("sequential", DispatchPolicy::Sequential as i32),
-                ("rotation", DispatchPolicy::Rotation as i32)
+                ("rotation", DispatchPolicy::Rotation as i32),
+                ("target", DispatchPolicy::Target as i32)
             ]
         );
         assert_eq!(

@@ -15,6 +15,15 @@
 //!   over-produces there).
 //! - `Rotation`: the count of `Sequential`; which modules run is chosen by running hours
 //!   and starts (see [`crate::model::hub`]).
+//! - `Target`: the count that puts the running modules nearest to a target load t,
+//!   n = round(D/t) within [⌈D/M⌉, min(N, ⌊D/m⌋)] (0 if D < m), each at D/n; the count is kept
+//!   while the running modules' share D/n stays within b of t and in [m, M]. Sequential is
+//!   its end t = M; the most modules that fit the window its other end t = m. The count
+//!   follows the demand without the reserves' request (the base): an activation is shared by
+//!   the running modules, and changes their count only where the window requires it
+//!   ([`within_window`]). The reserve a hub can sell depends on t: headroom to m for
+//!   decreases, the running modules' summed ramp rate and headroom to M for increases
+//!   (`aem-prequalify --optimise-dispatch` finds the best t).
 
 use super::grid::GridParameters;
 use super::parameters::{ParameterError, Parameters};
@@ -29,6 +38,8 @@ pub enum DispatchPolicy {
     Sequential = 2,
     /// 3: sequential, fewest running hours (then starts) first.
     Rotation = 3,
+    /// 4: the running modules nearest a target load, the others stopped.
+    Target = 4,
 }
 
 impl DispatchPolicy {
@@ -38,10 +49,11 @@ impl DispatchPolicy {
             1 => Ok(Self::Equal),
             2 => Ok(Self::Sequential),
             3 => Ok(Self::Rotation),
+            4 => Ok(Self::Target),
             _ => Err(ParameterError {
                 name: "dispatch",
                 value: code as f64,
-                requirement: "must be 1 (equal), 2 (sequential) or 3 (rotation)".into(),
+                requirement: "must be 1 (equal), 2 (sequential), 3 (rotation) or 4 (target)".into(),
             }),
         }
     }
@@ -74,6 +86,8 @@ pub struct Limits {
     pub max: f64,
     /// Hysteresis band against switching modules on and off repeatedly.
     pub band: f64,
+    /// The load a running module should be nearest to (`Target`), within [min, max].
+    pub target: f64,
 }
 
 /// Number of modules that should run for a total demand `total` (module units, summed over
@@ -118,7 +132,34 @@ pub fn running_count(
                 .max(need);
             previous.clamp(need, keep)
         }
+        DispatchPolicy::Target => {
+            let kept = within_window(modules, total, limits, previous);
+            if kept > 0
+                && kept == previous
+                && (total / kept as f64 - limits.target).abs() <= limits.band
+            {
+                return kept;
+            }
+            within_window(
+                modules,
+                total,
+                limits,
+                (total / limits.target).round() as u32,
+            )
+        }
     }
+}
+
+/// `count` running modules brought into the window for a total demand `total`: within
+/// [⌈D/M⌉, min(N, ⌊D/m⌋)] (the lower bound wins where the two cross), 0 if D < m.
+pub fn within_window(modules: u32, total: f64, limits: Limits, count: u32) -> u32 {
+    if total < limits.min {
+        return 0;
+    }
+    let n = modules as f64;
+    let need = (total / limits.max).ceil().min(n) as u32;
+    let most = ((total / limits.min).floor().min(n) as u32).max(need);
+    count.clamp(need, most)
 }
 
 /// Setpoint [%] at which a module's steady stack power is `power` [W]: the positive root of
@@ -216,6 +257,7 @@ mod tests {
         min: 60.0,
         max: 100.0,
         band: 5.0,
+        target: 80.0,
     };
 
     #[test]
@@ -286,6 +328,68 @@ mod tests {
         assert_eq!(running_count(S, 10, 149.0, L, 1, false), 2); // rising: ⌈149/100⌉
         assert_eq!(running_count(S, 1, 57.0, L, 1, false), 0);
         assert_eq!(running_count(S, 10, 5000.0, L, 3, false), 10);
+    }
+
+    #[test]
+    fn target_counts_put_the_running_modules_nearest_the_target() {
+        use DispatchPolicy::Target as T;
+        // 400 module-% at a target of 80 %: 5 modules at 80 %.
+        assert_eq!(running_count(T, 10, 400.0, L, 0, false), 5);
+        // 430: 5.375 → 5 at 86 %; kept from 5 while within 80 ± 5 %, else re-chosen.
+        assert_eq!(running_count(T, 10, 430.0, L, 0, false), 5);
+        assert_eq!(
+            running_count(T, 10, 420.0, L, 5, false),
+            5,
+            "84 % is within the band"
+        );
+        assert_eq!(
+            running_count(T, 10, 440.0, L, 5, false),
+            6,
+            "88 % is not: 5.5 → 6 at 73 %"
+        );
+        assert_eq!(
+            running_count(T, 10, 370.0, L, 6, false),
+            5,
+            "62 %: re-chosen"
+        );
+        // Never below the window nor above it, and never more modules than the hub has.
+        assert_eq!(running_count(T, 10, 50.0, L, 3, false), 0);
+        assert_eq!(running_count(T, 10, 70.0, L, 0, false), 1);
+        assert_eq!(
+            running_count(T, 10, 190.0, L, 0, false),
+            2,
+            "2.4 → 2 at 95 %"
+        );
+        assert_eq!(
+            running_count(T, 10, 130.0, L, 0, false),
+            2,
+            "1.6 → 2 at 65 %"
+        );
+        assert_eq!(
+            running_count(T, 10, 950.0, L, 0, false),
+            10,
+            "11.9 → the hub's 10"
+        );
+        let low = Limits { target: 60.0, ..L };
+        assert_eq!(
+            running_count(T, 10, 290.0, low, 0, false),
+            4,
+            "five would run at 58 %"
+        );
+        // Sequential is the end t = M.
+        let top = Limits {
+            target: 100.0,
+            band: 0.0,
+            ..L
+        };
+        for total in [60.0, 99.0, 101.0, 250.0, 777.0, 1000.0] {
+            assert_eq!(
+                running_count(T, 10, total, top, 0, false),
+                running_count(DispatchPolicy::Sequential, 10, total, top, 0, false),
+                "{total}"
+            );
+        }
+        assert_eq!(DispatchPolicy::from_code(4), Ok(T));
     }
 
     #[test]

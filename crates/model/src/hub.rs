@@ -13,8 +13,9 @@
 
 use std::cmp::Ordering;
 
-use super::dispatch::{running_count, Demand, DispatchPolicy, Limits, PowerCurve};
+use super::dispatch::{running_count, within_window, Demand, DispatchPolicy, Limits, PowerCurve};
 use super::dynamics::{CurrentDynamics, StepFactors};
+use super::grid::GridParameters;
 use super::lanes::{LaneBank, Share, LANES};
 use super::module::StepError;
 use super::operation::{BelowMinimum, Command, OperatingState, OperationParameters, UnitState};
@@ -38,6 +39,9 @@ pub struct HubConfig {
     pub n_modules: u32,
     /// Dispatch policy.
     pub policy: DispatchPolicy,
+    /// `Target` dispatch: the setpoint a running module should be nearest to [%], within
+    /// [minSetpoint, maxSetpoint] (in power mode: that setpoint's power).
+    pub dispatch_target: f64,
     /// Hysteresis band [% of one module's nominal setpoint range]: in setpoint mode in %,
     /// in power mode as that fraction of one module's power at maxSetpoint.
     pub hysteresis: f64,
@@ -58,6 +62,7 @@ impl Default for HubConfig {
         HubConfig {
             n_modules: 1,
             policy: DispatchPolicy::Equal,
+            dispatch_target: 80.0,
             hysteresis: 5.0,
             operation: OperationParameters::default(),
             compensation: false,
@@ -144,7 +149,7 @@ pub struct Hub {
     /// Modules dispatched to run after the last step.
     running_target: u32,
     totals: HubTotals,
-    /// Upper bound of the hub's power [W], for the overflow check.
+    /// Upper bound of the hub's power, on the grid side [W], for the overflow check.
     max_power: f64,
     /// The window's steady power range of the whole hub [W] ([`Hub::power_range`]).
     power_range: (f64, f64),
@@ -258,10 +263,18 @@ impl Hub {
             }
             let op = &config.operation;
             let curve = PowerCurve::new(&params, &op.grid);
+            // The grid's power bounds the stack's (and the energies of both).
+            let grid_side = PowerCurve::new(
+                &params,
+                &GridParameters {
+                    grid_side_reference: true,
+                    ..op.grid
+                },
+            );
             max_power += count as f64
-                * curve
+                * grid_side
                     .power(params.max_setpoint)
-                    .max(op.start_power)
+                    .max(op.start_power + op.grid.auxiliary_power)
                     .max(op.standby_power);
             types.push(ModuleType {
                 count,
@@ -281,6 +294,20 @@ impl Hub {
                 }),
                 curve,
                 params,
+            });
+        }
+        let first = &types[0].params;
+        if config.policy == DispatchPolicy::Target
+            && !(first.min_setpoint..=first.max_setpoint).contains(&config.dispatch_target)
+        {
+            return Err(ParameterError {
+                name: "dispatchTargetSetpoint",
+                value: config.dispatch_target,
+                requirement: format!(
+                    "must lie within the window [{}, {}] % (minSetpoint, maxSetpoint) with dispatch = 4 (target)",
+                    super::shown(first.min_setpoint),
+                    super::shown(first.max_setpoint)
+                ),
             });
         }
         if !demand.value().is_finite() {
@@ -322,7 +349,7 @@ impl Hub {
             surveyed: None,
             read: None,
         };
-        let n = hub.target_count(demand);
+        let n = hub.target_count(demand, demand);
         hub.running_target = n;
         let start_temperature = config
             .thermal
@@ -376,6 +403,7 @@ impl Hub {
                 min: p.min_setpoint,
                 max: p.max_setpoint,
                 band: self.config.hysteresis,
+                target: self.config.dispatch_target,
             },
             Demand::Power(_) => {
                 let curve = &self.types[0].curve;
@@ -384,23 +412,38 @@ impl Hub {
                     min: curve.power(p.min_setpoint),
                     max,
                     band: self.config.hysteresis / 100.0 * max,
+                    target: curve.power(self.config.dispatch_target),
                 }
             }
         }
     }
 
-    fn target_count(&self, demand: Demand) -> u32 {
+    /// The running count for `demand`; `Target` dispatch counts for `base` (the demand
+    /// without the reserves' request) and brings that count into the window of `demand`.
+    fn target_count(&self, demand: Demand, base: Demand) -> u32 {
         let n = self.config.n_modules;
-        let total = match demand {
+        let total = |d: Demand| match d {
             Demand::Setpoint(u) => u * n as f64,
             Demand::Power(p) => p,
         };
         let always_on = self.config.operation.below_minimum == BelowMinimum::Minimum;
+        let limits = self.limits(demand);
+        if self.config.policy == DispatchPolicy::Target {
+            let counted = running_count(
+                DispatchPolicy::Target,
+                n,
+                total(base),
+                limits,
+                self.running_target,
+                always_on,
+            );
+            return within_window(n, total(demand), limits, counted);
+        }
         running_count(
             self.config.policy,
             n,
-            total,
-            self.limits(demand),
+            total(demand),
+            limits,
             self.running_target,
             always_on,
         )
@@ -420,6 +463,17 @@ impl Hub {
     /// Advances the hub by `h` seconds with `demand` held over the step. Refused requests
     /// leave the hub unchanged.
     pub fn step(&mut self, demand: Demand, h: f64) -> Result<(), StepError> {
+        self.step_with_base(demand, demand, h)
+    }
+
+    /// [`Hub::step`] where `demand` holds a reserve request on top of `base` (of the same
+    /// kind): `Target` dispatch counts its running modules for the base.
+    pub fn step_with_base(
+        &mut self,
+        demand: Demand,
+        base: Demand,
+        h: f64,
+    ) -> Result<(), StepError> {
         let value = demand.value();
         if !value.is_finite() {
             return Err(StepError::NonFiniteSetpoint(value));
@@ -434,7 +488,7 @@ impl Hub {
         {
             return Err(StepError::Overflow(h));
         }
-        let n = self.target_count(demand);
+        let n = self.target_count(demand, base);
         // The stack temperature's integrator may refuse a step (in theory: its tolerances are
         // met at any step size the time allows); the hub is then put back as it was.
         let before = self

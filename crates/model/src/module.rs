@@ -431,7 +431,21 @@ impl Module {
         let time = self.state.time + h;
         let states_finite =
             current.current.is_finite() && current.z1.is_finite() && current.z2.is_finite();
-        if !(energy.is_finite() && h2_produced.is_finite() && time.is_finite() && states_finite) {
+        let ac_energy = self.grid.ac_energy(
+            energy,
+            &CurrentSums {
+                running: time,
+                starting: 0.0,
+                current: charge,
+                current_squared,
+            },
+        );
+        if !(energy.is_finite()
+            && ac_energy.is_finite()
+            && h2_produced.is_finite()
+            && time.is_finite()
+            && states_finite)
+        {
             return Err(StepError::Overflow(h));
         }
         self.state = ModuleState {
@@ -657,6 +671,22 @@ mod tests {
             many.current()
         );
         assert!((one.energy() - many.energy()).abs() < 1e-9 * one.energy());
+    }
+
+    #[test]
+    fn a_step_whose_grid_energy_would_overflow_is_refused() {
+        let grid = GridParameters {
+            auxiliary_power: 1e300,
+            ..GridParameters::default()
+        };
+        let mut m = Module::new(Parameters::default(), 70.0)
+            .unwrap()
+            .with_grid(grid);
+        let before = *m.state();
+        assert!(matches!(m.step(70.0, 1e300), Err(StepError::Overflow(_))));
+        assert_eq!(*m.state(), before);
+        m.step(70.0, 1.0).unwrap();
+        assert!(m.ac_energy().is_finite());
     }
 
     #[test]

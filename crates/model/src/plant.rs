@@ -39,8 +39,10 @@ pub const MAX_INDIVIDUAL_MODULES: i32 = 1_000_000;
 pub struct PlantSettings {
     /// nModules [1].
     pub n_modules: i32,
-    /// dispatch: 1 equal, 2 sequential, 3 rotation.
+    /// dispatch: 1 equal, 2 sequential, 3 rotation, 4 target.
     pub dispatch: i32,
+    /// dispatchTargetSetpoint [%]: the load of a running module under target dispatch.
+    pub dispatch_target: f64,
     /// belowMinimum: 0 stay at minimum, 1 standby, 2 off.
     pub below_minimum: i32,
     /// powerInput: the power reference drives the hub.
@@ -85,6 +87,7 @@ impl Default for PlantSettings {
             dispatch: DispatchPolicy::Equal as i32,
             below_minimum: BelowMinimum::Minimum as i32,
             power_input: false,
+            dispatch_target: 80.0,
             hysteresis: 5.0,
             cold_start_time: operation.cold_start_time,
             warm_start_time: operation.warm_start_time,
@@ -148,6 +151,7 @@ impl PlantSettings {
         let hub = HubConfig {
             n_modules: self.n_modules as u32,
             policy: DispatchPolicy::from_code(self.dispatch as i64)?,
+            dispatch_target: self.dispatch_target,
             hysteresis: self.hysteresis,
             operation: OperationParameters {
                 cold_start_time: self.cold_start_time,
@@ -448,9 +452,10 @@ impl Plant {
             return self.step(config, setpoint, slope, power_reference, h);
         }
         let demand = self.requested_demand(config, setpoint, power_reference, request);
+        let base = config.demand(setpoint, power_reference);
         match self {
             Plant::Hub(hub, readings) if slope == 0.0 => {
-                hub.step(demand, h)?;
+                hub.step_with_base(demand, base, h)?;
                 *readings = hub.readings();
                 Ok(())
             }

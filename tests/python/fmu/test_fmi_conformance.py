@@ -111,9 +111,9 @@ FMI2_CS_FUNCTIONS = (
 
 FMUTOOL = Path(sys.executable).with_name("fmutool")
 
-# Serialised FMU state (src/fmi2/fmu_state.rs, format 9): magic(8) version(4) payload length(4)
+# Serialised FMU state (src/fmi2/fmu_state.rs, format 10): magic(8) version(4) payload length(4)
 # payload crc32(4); payload = GUID length(4) GUID, FMI state code, excursion and stop-time flags
-# (1 each), 11 f64 parameters (gain first), 4 u32 and 1 u8 hub settings, 8 f64 hub settings,
+# (1 each), 11 f64 parameters (gain first), 4 u32 and 1 u8 hub settings, 9 f64 hub settings,
 # 7 f64, 1 u8 and 1 f64 reserve settings, the thermal model's u8 switch, u32 nCells and 10 f64, the grid
 # side's u8 switch and 4 f64, the ageing's 6 f64, 7 f64 (setpoint, powerReference, frequency, ambientTemperature,
 # setpoint slope, time, stop time), the module parameter file (u32 length, here 0, and its
@@ -127,7 +127,7 @@ STATE_AFTER_PARAMETERS = (
     8 * 11
     + 4 * 4
     + 1
-    + 8 * 8
+    + 8 * 9
     + 8 * 7
     + 1
     + 8
@@ -312,7 +312,7 @@ def test_every_variable_has_a_declared_unit(model_description):
 
 #: The enumeration types (FMI 2.0 section 2.2.3) with the codes the FMU has always used.
 ENUMERATIONS = {
-    "dispatch": ("Dispatch", {"equal": 1, "sequential": 2, "rotation": 3}),
+    "dispatch": ("Dispatch", {"equal": 1, "sequential": 2, "rotation": 3, "target": 4}),
     "belowMinimum": ("BelowMinimum", {"stayAtMinimum": 0, "standby": 1, "off": 2}),
     "operatingState": ("OperatingState", {"idle": 0, "starting": 1, "running": 2, "standby": 3, "stopping": 4}),
 }
@@ -340,6 +340,7 @@ def test_enumerations_name_their_items_and_keep_the_integer_codes(fmu_path, mode
     [
         ("dispatch", 2, "sequential"),
         ("dispatch", 3, "rotation"),
+        ("dispatch", 4, "target"),
         ("belowMinimum", 2, "off"),
     ],
 )

@@ -549,3 +549,99 @@ fn starts_from_standby_are_warm_and_from_off_cold() {
         );
     }
 }
+
+#[test]
+fn target_dispatch_runs_the_modules_nearest_the_target_in_setpoint_and_power_mode() {
+    let p = Parameters::default();
+    let cfg = HubConfig {
+        dispatch_target: 75.0,
+        ..config(20, DispatchPolicy::Target, BelowMinimum::Standby)
+    };
+    // 30 % of 20 modules = 600 module-%: 8 modules at 75 %.
+    let mut hub = Hub::new(p, cfg, Demand::Setpoint(30.0)).unwrap();
+    run(&mut hub, Demand::Setpoint(30.0), 3600.0, 1.0);
+    assert_eq!(hub.count_in(OperatingState::Steady), 8);
+    let one = Module::new(p, 75.0).unwrap();
+    assert!((hub.h2_flow() - 8.0 * one.h2_flow()).abs() <= 1e-12 * hub.h2_flow());
+    // In power mode: the target's power, 12 modules' worth → 12 modules at exactly 75 %.
+    let at_target = power_at_setpoint(&p, 75.0);
+    let demand = Demand::Power(12.0 * at_target);
+    let mut hub = Hub::new(p, cfg, demand).unwrap();
+    run(&mut hub, demand, 3600.0, 1.0);
+    assert_eq!(hub.count_in(OperatingState::Steady), 12);
+    assert!((hub.power() - 12.0 * at_target).abs() <= 1e-9 * hub.power());
+    // Sequential runs fewer at the same demand (⌈12·P(75 %)/P(100 %)⌉), equal all 20.
+    let seq = HubConfig {
+        policy: DispatchPolicy::Sequential,
+        ..cfg
+    };
+    let mut hub = Hub::new(p, seq, demand).unwrap();
+    run(&mut hub, demand, 3600.0, 1.0);
+    assert!(hub.count_in(OperatingState::Steady) < 12);
+}
+
+#[test]
+fn a_dispatch_target_outside_the_window_is_refused_by_name() {
+    let p = Parameters::default();
+    for target in [59.9, 100.1, f64::NAN] {
+        let cfg = HubConfig {
+            dispatch_target: target,
+            ..config(4, DispatchPolicy::Target, BelowMinimum::Off)
+        };
+        let err = Hub::new(p, cfg, Demand::Setpoint(50.0)).unwrap_err();
+        assert_eq!(err.name, "dispatchTargetSetpoint", "{target}");
+    }
+    // Other policies ignore it.
+    let cfg = HubConfig {
+        dispatch_target: 10.0,
+        ..config(4, DispatchPolicy::Sequential, BelowMinimum::Off)
+    };
+    assert!(Hub::new(p, cfg, Demand::Setpoint(50.0)).is_ok());
+}
+
+#[test]
+fn target_dispatch_counts_for_the_base_and_shares_a_request_among_the_running_modules() {
+    let p = Parameters::default();
+    let cfg = HubConfig {
+        dispatch_target: 75.0,
+        ..config(20, DispatchPolicy::Target, BelowMinimum::Standby)
+    };
+    let at_target = power_at_setpoint(&p, 75.0);
+    let base = Demand::Power(8.0 * at_target);
+    // A request of one module's power less: the 8 running modules share it (each at 7/8 of
+    // its power, outside the band around 75 % but inside the window)...
+    let asked = Demand::Power(7.0 * at_target);
+    let mut hub = Hub::new(p, cfg, base).unwrap();
+    for _ in 0..3600 {
+        hub.step_with_base(asked, base, 1.0).unwrap();
+    }
+    assert_eq!(hub.count_in(OperatingState::Steady), 8);
+    assert!(
+        (hub.power() - 7.0 * at_target).abs() <= 1e-9 * hub.power(),
+        "{} {}",
+        hub.power(),
+        7.0 * at_target
+    );
+    // ... where counting for the demand itself stops one of them.
+    let mut counted = Hub::new(p, cfg, base).unwrap();
+    for _ in 0..3600 {
+        counted.step(asked, 1.0).unwrap();
+    }
+    assert_eq!(counted.count_in(OperatingState::Steady), 7);
+    // A request the window cannot take with 8 modules changes the count as far as it must:
+    // ⌊4·P(75 %)/P(60 %)⌋ modules stay (the hub draws the demand once the others' standby,
+    // which the reference pays for, has ended).
+    let deep = Demand::Power(4.0 * at_target);
+    let most = (4.0 * at_target / power_at_setpoint(&p, 60.0)).floor() as u32;
+    for _ in 0..7200 {
+        hub.step_with_base(deep, base, 1.0).unwrap();
+    }
+    assert_eq!(hub.count_in(OperatingState::Steady), most);
+    assert!(
+        (hub.power() - 4.0 * at_target).abs() <= 1e-6 * hub.power(),
+        "{} {} {most} {}",
+        hub.power(),
+        4.0 * at_target,
+        hub.count_in(OperatingState::Standby)
+    );
+}
