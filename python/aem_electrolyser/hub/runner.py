@@ -29,8 +29,9 @@ __all__ = ["Hub", "HubRunner", "MESSAGES"]
 
 @dataclass(frozen=True)
 class Hub:
-    """The hub under test: modules, dispatch (1 equal, 2 sequential), belowMinimum (0 stay at
-    the minimum, 1 standby), baseline as a fraction of rated power, the reserve control
+    """The hub under test: modules, dispatch (1 equal, 2 sequential, 4 target: the running
+    modules nearest dispatch_target [%], the FMU's dispatchTargetSetpoint), belowMinimum (0 stay
+    at the minimum, 1 standby), baseline as a fraction of rated power, the reserve control
     (compensation: the slow pole cancelled; or filter_zero > 0: the transfer function's zero
     moved there [s], the FMU's reserveFilterZero), and further FMU parameters set by name
     ((name, value) pairs: the grid side, the stack temperature)."""
@@ -42,6 +43,7 @@ class Hub:
     compensation: bool = False
     settings: tuple = ()
     filter_zero: float = 0.0
+    dispatch_target: float = 80.0
 
     def control(self) -> str:
         """The reserve control in words."""
@@ -50,7 +52,7 @@ class Hub:
         return "compensation on" if self.compensation else "compensation off"
 
     def describe(self) -> str:
-        policy = {1: "equal", 2: "sequential", 3: "rotation"}[self.dispatch]
+        policy = {1: "equal", 2: "sequential", 3: "rotation", 4: f"target {self.dispatch_target:.4g} %"}[self.dispatch]
         settings = "".join(f", {name} = {value}" for name, value in self.settings)
         return (
             f"{self.n_modules} modules, {policy} dispatch, baseline {100 * self.baseline:.0f} % of rated power, "
@@ -141,6 +143,8 @@ class HubRunner:
         reals = dict(parameters or {})
         if h.filter_zero > 0:
             reals["reserveFilterZero"] = h.filter_zero
+        if h.dispatch == 4:
+            reals["dispatchTargetSetpoint"] = h.dispatch_target
         reals["powerReference"] = self.baseline if power_reference is None else float(power_reference[0])
         if frequency is not None:
             reals["frequency"] = float(frequency[0])

@@ -2,7 +2,7 @@
 """Prequalification of an electrolyser hub for frequency reserves, on the packaged FMU.
 
     aem-prequalify [--modules 25000] [--dispatch equal] [--baseline 80]
-        [--compensation both] [--filter-zero SECONDS,...] [--optimise]
+        [--compensation both] [--filter-zero SECONDS,...] [--optimise] [--optimise-dispatch]
         [--products all] [--parameter NAME=VALUE ...]
         [--out out/prequalification] [--no-plots]
 
@@ -36,6 +36,15 @@ capacity against plain droop and compensation, the limiting requirement, every o
 requirement's margin at the optimum, and every zero tried; the optimum's report and plots are
 <hub>_<product>_optimum.md and .png.
 
+The dispatch is the other lever: at a baseline B the hub can run any count n of modules that
+keeps each inside its window (from the fewest, sequential dispatch, to the most), each at B/n,
+the others in warm standby. `--optimise-dispatch` searches, per product and baseline, the count
+that sells the most with plain droop (aem_electrolyser.reserves.dispatch_search: every count
+where there are few, else the same grid and bracket), run by the FMU as target dispatch
+(dispatchTargetSetpoint at the setpoint that draws B/n), and writes <out>/dispatch_optimum.md,
+.csv and .json: the count, its target setpoint and capacity, against the fewest and the most
+modules.
+
 `--parameter NAME=VALUE` sets any other parameter of the FMU on every hub (repeatable), for
 instance the grid side (auxiliaryPower, supplyNoLoadLoss, supplyLossVoltage,
 supplyLossResistance, and gridSideReference = true: the baseline, the rated power and the
@@ -62,11 +71,14 @@ from pathlib import Path
 from aem_electrolyser import cli
 from aem_electrolyser.hub.messages import FmuError
 from aem_electrolyser.hub.runner import Hub, HubRunner
-from aem_electrolyser.reserves import assess, optimise, report
+from aem_electrolyser.reserves import assess, dispatch_search, optimise, report
 from aem_electrolyser.reserves.products import BY_NAME, PRODUCTS
 
 DISPATCH = {"equal": 1, "sequential": 2}
-POLICY = {v: k for k, v in DISPATCH.items()}
+POLICY = {1: "equal", 2: "sequential", 4: "target"}
+#: belowMinimum per dispatch: equal keeps every module at minSetpoint at worst (the paper);
+#: sequential and target dispatch put the modules they do not run in warm standby.
+BELOW_MINIMUM = {1: 0, 2: 1, 4: 1}
 #: The FMU's nModules is an FMI Integer (32 bits).
 MAX_MODULES = 2**31 - 1
 
@@ -122,13 +134,17 @@ def control_name(hub: Hub) -> str:
     return "compensated" if hub.compensation else "plain"
 
 
+def policy_name(hub: Hub) -> str:
+    return f"target {hub.dispatch_target:.4g} %" if hub.dispatch == 4 else POLICY[hub.dispatch]
+
+
 def hub_name(hub: Hub) -> str:
-    return f"{POLICY[hub.dispatch]}_{percent(hub.baseline)}pct_{control_name(hub)}"
+    return f"{slug(policy_name(hub))}_{percent(hub.baseline)}pct_{control_name(hub)}"
 
 
 def hub_label(hub: Hub) -> str:
     control = f" zero {hub.filter_zero:.4g} s" if hub.filter_zero > 0 else " compensated" if hub.compensation else ""
-    return f"{POLICY[hub.dispatch]} {percent(hub.baseline)} %{control}"
+    return f"{policy_name(hub)} {percent(hub.baseline)} %{control}"
 
 
 def slug(text: str) -> str:
@@ -323,6 +339,12 @@ def parser():
         help="search per product the zero that sells the most (writes optimum.md, .csv, .json)",
     )
     p.add_argument(
+        "--optimise-dispatch",
+        action="store_true",
+        help="search per product and baseline the number of running modules that sells the most, run "
+        "as target dispatch (writes dispatch_optimum.md, .csv, .json)",
+    )
+    p.add_argument(
         "--products",
         type=cli.list_of(names),
         default=names,
@@ -357,6 +379,7 @@ OWN_PARAMETERS = {
     "powerInput",
     "reserveCompensation",
     "reserveFilterZero",
+    "dispatchTargetSetpoint",
     "fcrNCapacity",
     "fcrDUpCapacity",
     "fcrDDownCapacity",
@@ -402,18 +425,33 @@ def fmu_settings(p, args):
 
 
 def check_baselines(p, args):
-    """A baseline the hub cannot hold (below every module at minSetpoint) is a usage error."""
+    """A baseline the hub cannot hold (equal dispatch: below every module at minSetpoint; the
+    others: below one module at minSetpoint) is a usage error."""
     runner = HubRunner(args.fmu, Hub(args.modules, settings=args.settings))
     try:
         least = 100.0 * runner.least_power / runner.rated_power
     finally:
         runner.close()
-    low = [b for b in args.baseline if 100.0 * b < least - 1e-9]
-    if low:
-        p.error(
-            f"--baseline: {100 * low[0]:g} % is below the hub's least steady power, {least:.2f} % of rated "
-            f"(every module at minSetpoint); give each within [{least:.2f}, 100]"
-        )
+    curve = module_curve(args)
+    one = 100.0 * curve.power(curve.min_setpoint) / (args.modules * curve.power(curve.max_setpoint))
+    for d in args.dispatch + (["sequential"] if args.optimise_dispatch else []):
+        floor, what = (least, "every module at minSetpoint") if d == "equal" else (one, "one module at minSetpoint")
+        low = [b for b in args.baseline if 100.0 * b < floor - 1e-9]
+        if low:
+            p.error(
+                f"--baseline: {100 * low[0]:g} % is below what {d} dispatch can hold, {floor:.2f} % of rated "
+                f"({what}); give each within [{floor:.2f}, 100]"
+            )
+
+
+def module_curve(args):
+    """One module's steady power curve and window (the FMU's start values under --parameter)."""
+    from fmpy import read_model_description
+
+    start = {v.name: v.start for v in read_model_description(str(args.fmu)).modelVariables}
+    names = ("gain", "voltageIntercept", "ohmicResistance", "minSetpoint", "maxSetpoint")
+    value = {**{n: float(start[n]) for n in names}, **{k: float(v) for k, v in args.settings if k in names}}
+    return dispatch_search.ModuleCurve(*(value[n] for n in names))
 
 
 def run_jobs(args, keys):
@@ -473,11 +511,12 @@ def control_hub(args, d, base, zero, taus):
     """The hub whose reserve control puts the zero at `zero` [s]: at τz plain droop, at the slow
     pole τp2 compensation (the same dynamics bit for bit, and jobs the plain run may have done)."""
     tau_zero, _, tau_slow = taus
+    policy = DISPATCH[d]
     if zero == tau_zero:
-        return Hub(args.modules, DISPATCH[d], 0, base, False, args.settings)
+        return Hub(args.modules, policy, BELOW_MINIMUM[policy], base, False, args.settings)
     if zero == tau_slow:
-        return Hub(args.modules, DISPATCH[d], 0, base, True, args.settings)
-    return Hub(args.modules, DISPATCH[d], 0, base, False, args.settings, zero)
+        return Hub(args.modules, policy, BELOW_MINIMUM[policy], base, True, args.settings)
+    return Hub(args.modules, policy, BELOW_MINIMUM[policy], base, False, args.settings, zero)
 
 
 def optimise_controls(args, products, done, taus):
@@ -518,7 +557,8 @@ def write_optimum(args, optimum, done, rated):
         )
         ends = {}
         for compensation in (False, True):
-            key = (Hub(args.modules, DISPATCH[d], 0, base, compensation, args.settings), name)
+            policy = DISPATCH[d]
+            key = (Hub(args.modules, policy, BELOW_MINIMUM[policy], base, compensation, args.settings), name)
             ends[compensation] = done[key][0].sellable if key in done else None
         margins = (
             sorted(
@@ -589,6 +629,96 @@ def write_optimum(args, optimum, done, rated):
         )
 
 
+# --- the dispatch that sells the most -----------------------------------------------------------
+
+
+def count_hub(args, base, count, curve):
+    """The hub that runs `count` modules at baseline `base` (target dispatch), plain droop."""
+    target = dispatch_search.target_setpoint(count, base * args.modules * curve.power(curve.max_setpoint), curve)
+    return Hub(args.modules, 4, BELOW_MINIMUM[4], base, False, args.settings, dispatch_target=target)
+
+
+def optimise_dispatch(args, products, done):
+    """{(baseline, product name): (dispatch_search.Found, feasible counts)}: per product and
+    baseline the running count that sells the most; every job run lands in `done`."""
+    curve = module_curve(args)
+    rated = args.modules * curve.power(curve.max_setpoint)
+    found = {}
+    for base in args.baseline:
+        counts = dispatch_search.feasible_counts(args.modules, base * rated, curve)
+        for product in products:
+
+            def capacities(ns, base=base, product=product):
+                keys = [(count_hub(args, base, n, curve), product.name) for n in ns]
+                todo = [k for k in keys if k not in done]
+                if todo:
+                    done.update(run_jobs(args, todo))
+                return [done[k][0].sellable for k in keys]
+
+            found[(base, product.name)] = (dispatch_search.search(capacities, counts), counts)
+    return found
+
+
+def write_dispatch_optimum(args, dispatched, rated):
+    """dispatch_optimum.md, .csv and .json: per product and baseline the best running count,
+    its target setpoint and capacity, against the fewest and the most modules."""
+    curve = module_curve(args)
+    rows = []
+    for (base, name), (found, counts) in dispatched.items():
+        known = dict(found.tried)
+        rows.append(
+            {
+                "product": name,
+                "baseline [% of rated]": percent(base),
+                "running modules [1]": found.count,
+                "target setpoint [%]": dispatch_search.target_setpoint(found.count, base * rated, curve),
+                "capacity [W]": found.capacity,
+                "fewest modules [1]": counts[0],
+                "capacity with the fewest [W]": known.get(counts[0]),
+                "most modules [1]": counts[-1],
+                "capacity with the most [W]": known.get(counts[-1]),
+                "counts tried [(1, W)]": found.table(),
+            }
+        )
+    (args.out / "dispatch_optimum.json").write_text(json.dumps(rows, indent=2) + "\n")
+    with open(args.out / "dispatch_optimum.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        keys = [k for k in rows[0] if k != "counts tried [(1, W)]"]
+        w.writerow(keys)
+        for row in rows:
+            w.writerow(
+                ["" if row[k] is None else (f"{row[k]:.6g}" if isinstance(row[k], float) else row[k]) for k in keys]
+            )
+    cell = lambda w: "–" if w is None else power_text(w)  # noqa: E731
+    lines = [
+        f"# The dispatch that sells the most (rated power {rated / 1e6:.4g} MW, plain droop)",
+        "",
+        f"**{report.DISCLAIMER}**",
+        "",
+        "Per product and baseline, the number of running modules (each at the baseline's equal share, "
+        "the others in warm standby; the FMU's target dispatch) with the largest capacity, against the "
+        "fewest modules that hold the baseline (sequential dispatch) and the most.",
+        "",
+        "| product | baseline | running modules | target setpoint | capacity | fewest modules | most modules |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for row in rows:
+        lines.append(
+            f"| {row['product']} | {row['baseline [% of rated]']} % | {row['running modules [1]']} | "
+            f"{row['target setpoint [%]']:.4g} % | {power_text(row['capacity [W]'])} | "
+            f"{row['fewest modules [1]']}: {cell(row['capacity with the fewest [W]'])} | "
+            f"{row['most modules [1]']}: {cell(row['capacity with the most [W]'])} |"
+        )
+    (args.out / "dispatch_optimum.md").write_text("\n".join(lines) + "\n")
+    for row in rows:
+        cli.say(
+            args,
+            f"dispatch {row['product']:<16} {row['baseline [% of rated]']} %: {row['running modules [1]']} modules at "
+            f"{row['target setpoint [%]']:.4g} %, {power_text(row['capacity [W]'])} (fewest "
+            f"{cell(row['capacity with the fewest [W]'])}, most {cell(row['capacity with the most [W]'])})",
+        )
+
+
 def main(argv=None):
     p = parser()
     args = p.parse_args(argv)
@@ -607,12 +737,12 @@ def main(argv=None):
                 "the zero must lie between the poles"
             )
     hubs = [
-        Hub(args.modules, DISPATCH[d], 0, base, c, args.settings)
+        Hub(args.modules, DISPATCH[d], BELOW_MINIMUM[DISPATCH[d]], base, c, args.settings)
         for d in args.dispatch
         for base in args.baseline
         for c in modes
     ] + [
-        Hub(args.modules, DISPATCH[d], 0, base, False, args.settings, z)
+        Hub(args.modules, DISPATCH[d], BELOW_MINIMUM[DISPATCH[d]], base, False, args.settings, z)
         for d in args.dispatch
         for base in args.baseline
         for z in args.filter_zero
@@ -620,6 +750,7 @@ def main(argv=None):
     start = time.perf_counter()
     done = run_jobs(args, [(hub, p_.name) for hub in hubs for p_ in products])
     optimum = optimise_controls(args, products, done, taus) if args.optimise else None
+    dispatched = optimise_dispatch(args, products, done) if args.optimise_dispatch else None
     elapsed = time.perf_counter() - start
     rated = next(iter(done.values()))[3]
     figures = {}
@@ -642,6 +773,8 @@ def main(argv=None):
     rows = write_summary(args.out, hubs, products, figures, rated)
     if optimum is not None:
         write_optimum(args, optimum, done, rated)
+    if dispatched is not None:
+        write_dispatch_optimum(args, dispatched, rated)
     cli.say(args, f"{'product':<16} {'hub':<24} {'capacity':<34} limiting requirement")
     for name, hub, c in rows:
         k = f", K_red {c.reduction_factor:.3f}" if c.reduction_factor is not None else ""
