@@ -266,7 +266,12 @@ def test_enumerations_are_set_and_got_as_integers(fmu_path, tmp_path, wind):
     enum_fmu = enumeration_fmu(fmu_path, tmp_path / "Enum.fmu")
     sim, meta = started(enum_fmu)
     assert meta["models"]["Hub"]["units"]["dispatch"] == "1"
-    assert meta["models"]["Hub"]["enumerations"]["dispatch"] == {"equal": 1, "sequential": 2, "rotation": 3}
+    assert meta["models"]["Hub"]["enumerations"]["dispatch"] == {
+        "equal": 1,
+        "sequential": 2,
+        "rotation": 3,
+        "target": 4,
+    }
     sim.create(1, "Hub", nModules=N, dispatch="sequential", belowMinimum="standby", powerInput=True)
     sim.create(1, "Hub", nModules=N, dispatch=2, belowMinimum=1, powerInput=True)
     with pytest.raises(FMUError, match="'fastest' is not one of"):

@@ -313,7 +313,10 @@ def test_study_file_mistakes_stop_before_anything_runs(tmp_path, fmu_path, capsy
     for body, said in [
         (WIND + "[axes]\nhysterisis = [1]\n", "[axes]: unknown axis 'hysterisis' (did you mean 'hysteresis'?)"),
         (WIND + "[axes]\nhub_sise = [40]\n", "[axes]: unknown axis 'hub_sise' (did you mean 'hub_size'?)"),
-        (WIND + '[axes]\ndispatch = ["equally"]\n', "one of equal, sequential, rotation (did you mean 'equal'?)"),
+        (
+            WIND + '[axes]\ndispatch = ["equally"]\n',
+            "one of equal, sequential, rotation, target (did you mean 'equal'?)",
+        ),
         (WIND + "[parameters]\nnModules = 2.5\n", "[parameters] nModules = 2.5 is not an Integer"),
         (WIND + "[parameters]\nhysterisis = 2\n", "no parameter 'hysterisis' (did you mean 'hysteresis'?)"),
         (WIND + "[parameters]\npowerInput = true\n", "set by aem-study"),
