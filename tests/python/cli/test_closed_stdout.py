@@ -35,6 +35,7 @@ COMMANDS = [
         "examples.grid_cosim",
         "plot_validation",
         "reserves.prequalify",
+        "reserves.operating_table",
         "study",
     )
 ] + [
