@@ -510,6 +510,13 @@ COMMANDS = [
         ]
     ],
     Command(
+        "reserves.operating_table",
+        "python -m aem_electrolyser.reserves.operating_table",
+        _module("aem_electrolyser.reserves.operating_table", "--help"),
+        "grid-services.md",
+        "the reserve capacity over the base power per product, control and dispatch",
+    ),
+    Command(
         "mosaik.cigre_scenario",
         "python -m aem_electrolyser.mosaik.cigre_scenario",
         _module("aem_electrolyser.mosaik.cigre_scenario", "--help"),
