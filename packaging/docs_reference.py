@@ -517,6 +517,13 @@ COMMANDS = [
         "the reserve capacity over the base power per product, control and dispatch",
     ),
     Command(
+        "reserves.portfolio",
+        "python -m aem_electrolyser.reserves.portfolio",
+        _module("aem_electrolyser.reserves.portfolio", "--help"),
+        "grid-services.md",
+        "the running count, warm modules and control that earn the most from products sold together",
+    ),
+    Command(
         "mosaik.cigre_scenario",
         "python -m aem_electrolyser.mosaik.cigre_scenario",
         _module("aem_electrolyser.mosaik.cigre_scenario", "--help"),

@@ -24,7 +24,7 @@ use super::variables::Inputs;
 /// The first bytes of every serialised state.
 pub const MAGIC: &[u8; 8] = b"AEMFMUST";
 /// Version of the serialised format; bump it whenever the payload changes.
-pub const FORMAT_VERSION: u32 = 10;
+pub const FORMAT_VERSION: u32 = 11;
 const SAVED_MAGIC: u64 = 0x4145_4d5f_5354_4154; // "AEM_STAT"
 const PLANT_NONE: u8 = 0;
 const PLANT_MODULE: u8 = 1;
@@ -133,7 +133,13 @@ impl SavedState {
             w.f64(x);
         }
         let s = &self.settings;
-        for i in [s.n_modules, s.dispatch, s.below_minimum, s.spread_seed] {
+        for i in [
+            s.n_modules,
+            s.dispatch,
+            s.below_minimum,
+            s.spread_seed,
+            s.initial_standby,
+        ] {
             w.u32(i as u32);
         }
         w.u8(s.power_input as u8);
@@ -322,7 +328,8 @@ impl SavedState {
         let excursion = r.flag()?;
         let has_stop = r.flag()?;
         let params = read_parameters(&mut r)?;
-        let (n_modules, dispatch, below_minimum, spread_seed) = (
+        let (n_modules, dispatch, below_minimum, spread_seed, initial_standby) = (
+            r.u32()? as i32,
             r.u32()? as i32,
             r.u32()? as i32,
             r.u32()? as i32,
@@ -348,6 +355,7 @@ impl SavedState {
             parameter_spread: x[7],
             dispatch_target: x[8],
             spread_seed,
+            initial_standby,
             reserve: ReserveSettings {
                 fcr_n: r.finite()?,
                 fcr_d_up: r.finite()?,

@@ -383,6 +383,7 @@ pub fn integer_parameter_mut(
         Dispatch => Some(&mut settings.dispatch),
         BelowMinimum => Some(&mut settings.below_minimum),
         SpreadSeed => Some(&mut settings.spread_seed),
+        InitialStandby => Some(&mut settings.initial_standby),
         NCells => Some(&mut settings.thermal.n_cells),
         OperatingState | ModulesIdle | ModulesStarting | ModulesRunning | ModulesStandby
         | ModulesStopping => None,
@@ -400,7 +401,12 @@ pub fn integer_output(var: IntegerVariable, plant: &Plant) -> Option<i32> {
         V::ModulesRunning => Some(plant.count_in(Steady)),
         V::ModulesStandby => Some(plant.count_in(Standby)),
         V::ModulesStopping => Some(plant.count_in(Blowdown)),
-        V::NModules | V::Dispatch | V::BelowMinimum | V::SpreadSeed | V::NCells => None,
+        V::NModules
+        | V::Dispatch
+        | V::BelowMinimum
+        | V::SpreadSeed
+        | V::NCells
+        | V::InitialStandby => None,
     }
 }
 

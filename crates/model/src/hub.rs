@@ -55,6 +55,10 @@ pub struct HubConfig {
     pub filter_zero: f64,
     /// The stack temperature, if modelled: every module's thermal parameters.
     pub thermal: Option<ThermalParameters>,
+    /// Modules held in warm standby at t = 0, of those the dispatch does not run (the rest
+    /// are idle, cold): each draws standbyPower and starts in warmStartTime until
+    /// standbyDuration has passed; at most nModules.
+    pub initial_standby: u32,
 }
 
 impl Default for HubConfig {
@@ -68,6 +72,7 @@ impl Default for HubConfig {
             compensation: false,
             filter_zero: 0.0,
             thermal: None,
+            initial_standby: 0,
         }
     }
 }
@@ -182,7 +187,7 @@ const PARALLEL_FROM: usize = 4096;
 impl Hub {
     /// A hub of `config.n_modules` identical modules with parameters `params`, in the state
     /// the dispatch asks for at t = 0 under `demand`: running modules Steady in steady state,
-    /// the others Idle.
+    /// `config.initial_standby` of the others in warm standby, the rest Idle.
     pub fn new(
         params: Parameters,
         config: HubConfig,
@@ -358,6 +363,7 @@ impl Hub {
             });
         let drift = config.operation.ageing.initial();
         let mut active_left = n;
+        let mut standby_left = config.initial_standby;
         for kind in 0..hub.types.len() {
             let per_type_count = hub.types[kind].count;
             let on = active_left.min(per_type_count);
@@ -377,18 +383,37 @@ impl Hub {
                     starts: 0,
                 });
             }
-            if per_type_count > on {
-                let unit = UnitState::idle()
-                    .at_temperature(start_temperature)
-                    .with_drift(drift);
-                hub.groups.push(Group {
-                    count: per_type_count - on,
-                    kind: kind as u32,
-                    active: false,
-                    unit,
-                    running: 0.0,
-                    starts: 0,
-                });
+            let warm = standby_left.min(per_type_count - on);
+            standby_left -= warm;
+            let off = per_type_count - on - warm;
+            let standby = UnitState::standby(config.operation.standby_duration);
+            for (count, unit) in [(warm, standby), (off, UnitState::idle())] {
+                if count > 0 {
+                    hub.groups.push(Group {
+                        count,
+                        kind: kind as u32,
+                        active: false,
+                        unit: unit.at_temperature(start_temperature).with_drift(drift),
+                        running: 0.0,
+                        starts: 0,
+                    });
+                }
+            }
+        }
+        if let (Demand::Power(p), true) = (demand, config.initial_standby > 0) {
+            // A power reference is what the running modules share after the warm modules'
+            // standby power ([`Self::advance_groups`]): their steady state is at that share.
+            let others = hub.survey().others;
+            let carried = Demand::Power((p - others).max(0.0));
+            for g in 0..hub.groups.len() {
+                if hub.groups[g].active {
+                    let kind = hub.groups[g].kind as usize;
+                    let u = hub.module_setpoint(kind, carried, n.max(1));
+                    let ty = &hub.types[kind];
+                    hub.groups[g].unit = UnitState::steady(&ty.params, &ty.dynamics, u)
+                        .at_temperature(start_temperature)
+                        .with_drift(drift);
+                }
             }
         }
         hub.aligned = hub.is_aligned();
@@ -1047,6 +1072,13 @@ pub fn validate(config: &HubConfig) -> Result<(), ParameterError> {
             name: "hysteresis",
             value: config.hysteresis,
             requirement: "must be a finite number >= 0".into(),
+        });
+    }
+    if config.initial_standby > config.n_modules {
+        return Err(ParameterError {
+            name: "initialStandby",
+            value: config.initial_standby as f64,
+            requirement: format!("must not exceed nModules = {}", config.n_modules),
         });
     }
     if config.policy != DispatchPolicy::Equal

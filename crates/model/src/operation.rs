@@ -236,6 +236,11 @@ impl UnitState {
         }
     }
 
+    /// Warm standby for `duration` [s] (then idle), drawing standbyPower.
+    pub fn standby(duration: f64) -> Self {
+        timed(OperatingState::Standby, duration)
+    }
+
     /// Steady in steady state at `setpoint` [%] (clamped).
     pub fn steady(params: &Parameters, dynamics: &CurrentDynamics, setpoint: f64) -> Self {
         UnitState {

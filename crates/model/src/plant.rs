@@ -65,6 +65,8 @@ pub struct PlantSettings {
     pub parameter_spread: f64,
     /// spreadSeed [1].
     pub spread_seed: i32,
+    /// initialStandby [1]: modules held in warm standby at the start, of those not running.
+    pub initial_standby: i32,
     /// The frequency reserves offered and the compensation.
     pub reserve: ReserveSettings,
     /// thermalModel: the stack temperature is modelled.
@@ -97,6 +99,7 @@ impl Default for PlantSettings {
             stop_duration: operation.stop_duration,
             parameter_spread: 0.0,
             spread_seed: 1,
+            initial_standby: 0,
             reserve: ReserveSettings::default(),
             thermal_model: false,
             thermal: ThermalParameters::default(),
@@ -148,6 +151,13 @@ impl PlantSettings {
                 requirement: format!("must be <= {MAX_INDIVIDUAL_MODULES} when parameterSpread > 0 (one parameter set per module)"),
             });
         }
+        if self.initial_standby < 0 {
+            return Err(ParameterError {
+                name: "initialStandby",
+                value: self.initial_standby as f64,
+                requirement: "must be >= 0".into(),
+            });
+        }
         let hub = HubConfig {
             n_modules: self.n_modules as u32,
             policy: DispatchPolicy::from_code(self.dispatch as i64)?,
@@ -167,6 +177,7 @@ impl PlantSettings {
             compensation: self.reserve.compensation,
             filter_zero: self.reserve.filter_zero,
             thermal: None,
+            initial_standby: self.initial_standby as u32,
         };
         super::hub::validate(&hub)?;
         self.reserve.validate()?;

@@ -43,13 +43,15 @@ load flow, so the system is in equilibrium before the trip. The trip comes right
 exchange at its instant. It shifts the bus voltage angles at once, which the PLL reads as a
 frequency spike at B12 (-34 mHz, decaying with the PLL's 50 ms) that stays above 49.9 Hz.
 
-Four runs: no reserve (capacities 0), FCR-D up (fcrDUpCapacity = C: the hub draws
+Five runs: no reserve (capacities 0), FCR-D up (fcrDUpCapacity = C: the hub draws
 C * clamp((49.9 - f)/0.4, 0, 1) less), the same with reserveCompensation = true (the
 current follows K/(tau_p1 s + 1), tau_p1 = 2 s, instead of 84 % on tau_p1 and the rest on
 tau_p2 = 114 s), and the same with the reserve control that sells the most upward FCR-D
 (reserveFilterZero = 79.2 s, the zero aem-prequalify --optimise finds for the paper's module at
 80 % baseline: 69 % on tau_p1, a slower response than plain droop that the stability
-requirement allows more of). Per run: the first dip (lowest frequency at B12 within 5 s of the trip), the
+requirement allows more of), and the same with the control and dispatch that sell the most
+upward FCR-D together (the fewest modules, 20 000 at maxSetpoint under target dispatch, the
+others idle, with reserveFilterZero = 68.4 s). Per run: the first dip (lowest frequency at B12 within 5 s of the trip), the
 nadir (lowest of the run), the largest RoCoF (steepest fall over any 500 ms window, divided by
 0.5 s), the settling time (from the trip until the frequency stays within +-`--band` mHz,
 default 10, of its final value, the mean of the last second) and the hub's power before, 7.5 s
@@ -83,11 +85,17 @@ T_COMPARE = 7.5  # s after the trip: hub power of the plain and compensated runs
 #: The zero of the reserve control that sells the most upward FCR-D at 80 % baseline [s]
 #: (aem-prequalify --optimise with Table I; docs/grid-services.md).
 FILTER_ZERO = 79.2
-RUNS = {  # name: (offers FCR-D up, reserveCompensation, reserveFilterZero [s])
-    "no reserve": (False, False, 0.0),
-    "FCR-D up": (True, False, 0.0),
-    "FCR-D up, compensated": (True, True, 0.0),
-    "FCR-D up, zero 79 s": (True, False, FILTER_ZERO),
+#: The control and dispatch that sell the most upward FCR-D at 80 % baseline together: the
+#: fewest modules, each at maxSetpoint (target dispatch at 100 %: 20 000 of 25 000 run, the
+#: others idle), with the zero at 68.4 s (python -m aem_electrolyser.reserves.operating_table,
+#: its "both" column; 36.8 % of rated against 6.2 % with plain droop and equal dispatch).
+BOTH_ZERO, BOTH_TARGET = 68.4, 100.0
+RUNS = {  # name: (offers FCR-D up, reserveCompensation, reserveFilterZero [s], dispatchTargetSetpoint [%] or None: equal)
+    "no reserve": (False, False, 0.0, None),
+    "FCR-D up": (True, False, 0.0, None),
+    "FCR-D up, compensated": (True, True, 0.0, None),
+    "FCR-D up, zero 79 s": (True, False, FILTER_ZERO, None),
+    "FCR-D up, zero 68 s, fewest modules": (True, False, BOTH_ZERO, BOTH_TARGET),
 }
 TABLE_HEADER = [
     "run",
@@ -171,10 +179,12 @@ def run_case(
     name="hub",
     bar=None,
     filter_zero=0.0,
+    dispatch_target=None,
 ):
     """One co-simulation; returns a dict of arrays sampled at every TOPS step (after the step);
     `bar` (tqdm) advances by the simulated seconds; `filter_zero` > 0: the reserve control's
-    zero [s] (reserveFilterZero)."""
+    zero [s] (reserveFilterZero); `dispatch_target` [%]: target dispatch at that setpoint (the
+    modules not running idle), else equal dispatch."""
     import tops.dynamic as dps
     import tops.solvers as dps_sol
 
@@ -183,8 +193,9 @@ def run_case(
         instance_name=name,
         nModules=n_modules,
         powerInput=True,
-        dispatch=1,
-        belowMinimum=0,
+        dispatch=1 if dispatch_target is None else 4,
+        belowMinimum=0 if dispatch_target is None else 1,
+        **({} if dispatch_target is None else {"dispatchTargetSetpoint": dispatch_target}),
         fcrDUpCapacity=capacity,
         reserveCompensation=compensation,
         **({"reserveFilterZero": filter_zero} if filter_zero > 0 else {}),
@@ -239,6 +250,7 @@ def run_case(
         capacity=capacity,
         compensation=compensation,
         filter_zero=filter_zero,
+        dispatch_target=dispatch_target,
         trip_time=trip_time,
         tripped=tripped_mw * 1e6 if tripped_mw is not None else 0.0,
     )
@@ -313,7 +325,7 @@ def plot(path, cases, n_modules):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    colors = dict(zip(RUNS, ["tab:gray", "tab:blue", "tab:red", "tab:green"]))
+    colors = dict(zip(RUNS, ["tab:gray", "tab:blue", "tab:red", "tab:green", "tab:purple"]))
     fig, ax = plt.subplots(4, 1, figsize=(9, 10), sharex=True)
     base = cases["no reserve"]
     for name, o in cases.items():
@@ -411,8 +423,9 @@ def run(
                 name="hub_" + name.replace(" ", "_").replace(",", ""),
                 bar=bar,
                 filter_zero=zero,
+                dispatch_target=target,
             )
-            for name, (offers, compensation, zero) in RUNS.items()
+            for name, (offers, compensation, zero, target) in RUNS.items()
         }
     table = {name: metrics(o, band) for name, o in cases.items()}
     if out is not None:

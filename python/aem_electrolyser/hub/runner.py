@@ -33,8 +33,9 @@ class Hub:
     modules nearest dispatch_target [%], the FMU's dispatchTargetSetpoint), belowMinimum (0 stay
     at the minimum, 1 standby), baseline as a fraction of rated power, the reserve control
     (compensation: the slow pole cancelled; or filter_zero > 0: the transfer function's zero
-    moved there [s], the FMU's reserveFilterZero), and further FMU parameters set by name
-    ((name, value) pairs: the grid side, the stack temperature)."""
+    moved there [s], the FMU's reserveFilterZero), further FMU parameters set by name
+    ((name, value) pairs: the grid side, the stack temperature), and how many of the modules
+    not running wait in warm standby at the start (initialStandby; the others are idle)."""
 
     n_modules: int = 25_000
     dispatch: int = 1
@@ -44,6 +45,7 @@ class Hub:
     settings: tuple = ()
     filter_zero: float = 0.0
     dispatch_target: float = 80.0
+    initial_standby: int = 0
 
     def control(self) -> str:
         """The reserve control in words."""
@@ -54,6 +56,8 @@ class Hub:
     def describe(self) -> str:
         policy = {1: "equal", 2: "sequential", 3: "rotation", 4: f"target {self.dispatch_target:.4g} %"}[self.dispatch]
         settings = "".join(f", {name} = {value}" for name, value in self.settings)
+        if self.initial_standby:
+            settings += f", {self.initial_standby} in warm standby"
         return (
             f"{self.n_modules} modules, {policy} dispatch, baseline {100 * self.baseline:.0f} % of rated power, "
             f"{self.control()}{settings}"
@@ -94,8 +98,13 @@ class HubRunner:
         #: every module in standby.
         least = module_power(start["minSetpoint"]) if hub.below_minimum == 0 else start["standbyPower"]
         self.least_power = hub.n_modules * least
-        #: Baseline consumption [W].
+        #: Baseline consumption [W]: the power reference at rest.
         self.baseline = hub.baseline * self.rated_power
+        #: The power drawn at rest [W], from which the tests measure: the baseline, and the
+        #: standby power of the modules held warm (the FMU's own reading).
+        self.resting_power = self.baseline
+        if hub.initial_standby:
+            self.resting_power = self.steady([self.measured])[self.measured]
 
     def close(self):
         self._remove_unzipdir()
@@ -104,6 +113,26 @@ class HubRunner:
         """The power assessed (hubPower, or hubAcPower on the grid side) and reserveRequest [W]
         at every t[k] for the inputs held from t[k]."""
         t = np.asarray(t, float)
+
+        def steps(fmu):
+            self._initialise(fmu, t[0], frequency, power_reference, parameters)
+            return self._steps(fmu, t, frequency, power_reference)
+
+        return self._with_instance(steps)
+
+    def steady(self, names):
+        """The outputs `names` (in their model-description units) of the hub at its baseline,
+        where it starts in steady state (no frequency deviation, no reserve request)."""
+
+        def read(fmu):
+            self._initialise(fmu, 0.0, None, None, None)
+            get = {"Real": fmu.getReal, "Integer": fmu.getInteger, "Enumeration": fmu.getInteger}
+            return {n: get[self.vars[n].type]([self.vars[n].valueReference])[0] for n in names}
+
+        return self._with_instance(read)
+
+    def _with_instance(self, work):
+        """`work(fmu)` on a fresh instance, freed afterwards; the FMU's refusals in its words."""
         fmu = FMU2Slave(
             guid=self.md.guid,
             unzipDirectory=self.unzipdir,
@@ -113,7 +142,7 @@ class HubRunner:
         instantiate(fmu)
         try:
             with fmu_words(f"the hub ({self.hub.describe()})"):
-                return self._run(fmu, t, frequency, power_reference, parameters)
+                return work(fmu)
         finally:
             try:
                 fmu.terminate()
@@ -121,13 +150,15 @@ class HubRunner:
                 pass  # an instance in error ends with freeInstance alone; the first refusal was raised
             fmu.freeInstance()
 
-    def _run(self, fmu, t, frequency, power_reference, parameters):
-        fmu.setupExperiment(startTime=float(t[0]))
+    def _initialise(self, fmu, t0, frequency, power_reference, parameters):
+        fmu.setupExperiment(startTime=float(t0))
         h = self.hub
         fmu.setInteger(
             [self.vars[n].valueReference for n in ("nModules", "dispatch", "belowMinimum")],
             [h.n_modules, h.dispatch, h.below_minimum],
         )
+        if h.initial_standby:
+            fmu.setInteger([self.vars["initialStandby"].valueReference], [h.initial_standby])
         fmu.setBoolean(
             [self.vars["powerInput"].valueReference, self.vars["reserveCompensation"].valueReference],
             [True, h.compensation],
@@ -152,7 +183,6 @@ class HubRunner:
         fmu.setReal([self.vars[n].valueReference for n in names], [float(reals[n]) for n in names])
         fmu.enterInitializationMode()
         fmu.exitInitializationMode()
-        return self._steps(fmu, t, frequency, power_reference)
 
     def _steps(self, fmu, t, frequency, power_reference):
         n = len(t)

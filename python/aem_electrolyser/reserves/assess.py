@@ -84,7 +84,7 @@ def trace(runner: HubRunner, signal, capacity: float, parameters: dict) -> Trace
         reference = runner.baseline - np.asarray(signal.request) * capacity
         power, request = runner.run(signal.t, power_reference=reference, parameters=parameters)
         request = reference - runner.baseline
-    return Trace(signal.t, power, runner.baseline, f=signal.f, reserve_request=request)
+    return Trace(signal.t, power, runner.resting_power, f=signal.f, reserve_request=request)
 
 
 def largest(runner: HubRunner, product: Product, dt: float = 0.1, tolerance: float = None, on_step=None):

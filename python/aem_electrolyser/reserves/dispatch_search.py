@@ -1,6 +1,6 @@
 """The dispatch that sells the most of a product at a base power: how many of the hub's
-modules run (each at the base power's equal share, the others in warm standby), for the
-largest prequalified capacity.
+modules run (each at the base power's equal share; the others idle at the start, a cold start
+away, and in warm standby once stopped), for the largest prequalified capacity.
 
 At base power B a hub of N modules can run any count n with every running module inside its
 window, P(m)·n ≤ B ≤ P(M)·n: n from ⌈B/P(M)⌉ (sequential dispatch) to min(N, ⌊B/P(m)⌋) (the most

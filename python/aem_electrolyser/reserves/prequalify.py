@@ -38,7 +38,7 @@ requirement's margin at the optimum, and every zero tried; the optimum's report 
 
 The dispatch is the other lever: at a baseline B the hub can run any count n of modules that
 keeps each inside its window (from the fewest, sequential dispatch, to the most), each at B/n,
-the others in warm standby. `--optimise-dispatch` searches, per product and baseline, the count
+the others idle (off: a cold start away; a module stopped during a test waits in warm standby). `--optimise-dispatch` searches, per product and baseline, the count
 that sells the most with plain droop (aem_electrolyser.reserves.dispatch_search: every count
 where there are few, else the same grid and bracket), run by the FMU as target dispatch
 (dispatchTargetSetpoint at the setpoint that draws B/n), and writes <out>/dispatch_optimum.md,
@@ -77,7 +77,8 @@ from aem_electrolyser.reserves.products import BY_NAME, PRODUCTS
 DISPATCH = {"equal": 1, "sequential": 2}
 POLICY = {1: "equal", 2: "sequential", 4: "target"}
 #: belowMinimum per dispatch: equal keeps every module at minSetpoint at worst (the paper);
-#: sequential and target dispatch put the modules they do not run in warm standby.
+#: sequential and target dispatch put the modules they stop in warm standby (the ones not running
+#: at the start are idle).
 BELOW_MINIMUM = {1: 0, 2: 1, 4: 1}
 #: The FMU's nModules is an FMI Integer (32 bits).
 MAX_MODULES = 2**31 - 1
@@ -696,7 +697,7 @@ def write_dispatch_optimum(args, dispatched, rated):
         f"**{report.DISCLAIMER}**",
         "",
         "Per product and baseline, the number of running modules (each at the baseline's equal share, "
-        "the others in warm standby; the FMU's target dispatch) with the largest capacity, against the "
+        "the others idle; the FMU's target dispatch) with the largest capacity, against the "
         "fewest modules that hold the baseline (sequential dispatch) and the most.",
         "",
         "| product | baseline | running modules | target setpoint | capacity | fewest modules | most modules |",

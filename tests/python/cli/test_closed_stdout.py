@@ -36,6 +36,7 @@ COMMANDS = [
         "plot_validation",
         "reserves.prequalify",
         "reserves.operating_table",
+        "reserves.portfolio",
         "study",
     )
 ] + [

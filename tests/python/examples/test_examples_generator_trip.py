@@ -107,12 +107,13 @@ def test_reserve_request_is_the_fcr_d_up_closed_form_of_the_frequency_given(trip
     assert cases["FCR-D up"]["request"].min() < -0.3 * CAPACITY  # the trip reaches well into the band
 
 
-@pytest.mark.parametrize("name", ["FCR-D up", "FCR-D up, compensated", "FCR-D up, zero 79 s"])
+@pytest.mark.parametrize("name", [n for n, (offers, *_) in generator_trip.RUNS.items() if offers])
 def test_hub_power_is_the_closed_form_response_to_the_request(trip, name):
-    """Equal dispatch: every module gets the setpoint of (reference + request)/N, held over the
-    exchange; its current follows G(s) = K(a/(tau1 s+1) + b/(tau2 s+1)), or K/(tau1 s+1) with
-    compensation, or with the zero at tn the same with a = (tn - tau1)/(tau2 - tau1), b = 1 - a,
-    exactly for a held input (the request only lowers the draw: no ramp limit)."""
+    """Every running module gets the setpoint of (reference + request)/n, held over the exchange
+    (equal dispatch: n = N; target dispatch at t: n = reference/P(t) modules, counted for the
+    reference, the others idle); its current follows G(s) = K(a/(tau1 s+1) + b/(tau2 s+1)), or
+    K/(tau1 s+1) with compensation, or with the zero at tn the same with a = (tn - tau1)/(tau2 -
+    tau1), b = 1 - a, exactly for a held input (the request only lowers the draw: no ramp limit)."""
     _, cases, _ = trip
     o = cases[name]
     e = exchanges(o)
@@ -122,13 +123,14 @@ def test_hub_power_is_the_closed_form_response_to_the_request(trip, name):
     if o["filter_zero"] > 0:
         a = (o["filter_zero"] - PAPER["tauPole1"]) / (PAPER["tauPole2"] - PAPER["tauPole1"])
         b = 1.0 - a
-    u = [setpoint_for((o["p_ref"] + r) / N) for r in e["request"]]
+    n = N if o["dispatch_target"] is None else round(o["p_ref"] / module_power(o["dispatch_target"]))
+    u = [setpoint_for((o["p_ref"] + r) / n) for r in e["request"]]
     z1, z2 = a * K * u[0], b * K * u[0]
     e1, e2 = math.exp(-EXCHANGE / PAPER["tauPole1"]), math.exp(-EXCHANGE / PAPER["tauPole2"])
     expected = []
     for uk in u:
         i = z1 + z2
-        expected.append(N * (V0 + R * i) * i)
+        expected.append(n * (V0 + R * i) * i)
         z1 = a * K * uk + (z1 - a * K * uk) * e1
         z2 = b * K * uk + (z2 - b * K * uk) * e2
     assert e["hub"] == pytest.approx(np.array(expected), rel=1e-9)
@@ -136,18 +138,19 @@ def test_hub_power_is_the_closed_form_response_to_the_request(trip, name):
 
 def test_reserve_lifts_the_frequency_and_compensation_reduces_faster(trip):
     _, cases, table = trip
-    none, plain, comp, slow = (cases[n] for n in generator_trip.RUNS)
+    none, plain, comp, slow, both = (cases[n] for n in generator_trip.RUNS)
     # identical until the hub is asked for something (f < 49.9 Hz)
     quiet = none["time"] < TRIP + 0.1
-    for o in (plain, comp, slow):
+    for o in (plain, comp, slow, both):
         assert np.abs(o["f"][quiet] - none["f"][quiet]).max() < 1e-12
-    for o in (plain, comp, slow):
+    for o in (plain, comp, slow, both):
         assert o["f"].min() >= none["f"].min() - 1e-6  # nadir not lower (Hz)
         assert o["f"][-1] > none["f"][-1]
     at = np.searchsorted(none["time"], TRIP + 7.5 + DT / 2)  # the sample holding the power at the trip + 7.5 s
     assert none["time"][at] == pytest.approx(TRIP + 7.5 + DT)
     assert comp["hub"][at] < plain["hub"][at] < none["hub"][at] - 0.25 * CAPACITY
     assert plain["hub"][at] < slow["hub"][at] < none["hub"][at]  # the optimised control is slower
+    assert plain["hub"][at] < both["hub"][at] < none["hub"][at]  # so is the one with fewer modules
     # what the hub gives up lifts the frequency, by less than the governors' droop alone would
     # (1261 MW/Hz): part of it goes to the impedance loads, whose voltage rises with it
     for o in (plain, comp):

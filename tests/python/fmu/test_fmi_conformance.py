@@ -111,9 +111,9 @@ FMI2_CS_FUNCTIONS = (
 
 FMUTOOL = Path(sys.executable).with_name("fmutool")
 
-# Serialised FMU state (src/fmi2/fmu_state.rs, format 10): magic(8) version(4) payload length(4)
+# Serialised FMU state (src/fmi2/fmu_state.rs, format 11): magic(8) version(4) payload length(4)
 # payload crc32(4); payload = GUID length(4) GUID, FMI state code, excursion and stop-time flags
-# (1 each), 11 f64 parameters (gain first), 4 u32 and 1 u8 hub settings, 9 f64 hub settings,
+# (1 each), 11 f64 parameters (gain first), 5 u32 and 1 u8 hub settings, 9 f64 hub settings,
 # 7 f64, 1 u8 and 1 f64 reserve settings, the thermal model's u8 switch, u32 nCells and 10 f64, the grid
 # side's u8 switch and 4 f64, the ageing's 6 f64, 7 f64 (setpoint, powerReference, frequency, ambientTemperature,
 # setpoint slope, time, stop time), the module parameter file (u32 length, here 0, and its
@@ -125,7 +125,7 @@ STATE_MAGIC, STATE_VERSION, STATE_LENGTH, STATE_PAYLOAD = 0, 8, 12, 16
 STATE_FLAGS = 3
 STATE_AFTER_PARAMETERS = (
     8 * 11
-    + 4 * 4
+    + 4 * 5
     + 1
     + 8 * 9
     + 8 * 7

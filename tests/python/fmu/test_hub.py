@@ -100,6 +100,30 @@ def test_modules_kept_warm_draw_from_the_reference(driver):
     assert d.get("voltage") * d.get("current") * n / running == pytest.approx(share, rel=1e-6)
 
 
+def test_modules_held_warm_at_the_start_share_the_reference_and_start_warm(driver):
+    n, warm, reference = 10, 3, 4 * module_power(100.0)
+    d = hub(
+        driver,
+        power=reference,
+        integers=dict(nModules=n, dispatch=2, belowMinimum=1, initialStandby=warm),
+        booleans=dict(powerInput=True),
+    )
+    assert integers(d, "modulesRunning", "modulesStandby", "modulesIdle") == [4, warm, n - 4 - warm]
+    # From the start the hub draws the reference; the running modules share what the warm
+    # ones' standby power leaves, in steady state.
+    share = (reference - warm * STANDBY_POWER) / 4
+    current = (-V0 + math.sqrt(V0 * V0 + 4 * R * share)) / (2 * R)
+    for _ in range(2):
+        assert d.get("hubPower") == pytest.approx(reference, rel=1e-12)
+        assert d.get("hubH2Flow") == pytest.approx(4 * C * current, rel=1e-12)
+        run(d, 600, 10.0)
+    # Asked for all of them: the warm modules run after warmStartTime, the idle after coldStartTime.
+    run(d, WARM_START, 1.0, powerReference=n * module_power(100.0))
+    assert integers(d, "modulesRunning", "modulesStarting") == [4 + warm, n - 4 - warm]
+    run(d, COLD_START - WARM_START, 10.0)
+    assert integers(d, "modulesRunning") == [n]
+
+
 def test_sequential_dispatch_reaches_loads_an_equal_hub_cannot(driver):
     n = 1000
     seq = hub(driver, setpoint=20.0, integers=dict(nModules=n, dispatch=2, belowMinimum=2))
@@ -206,6 +230,8 @@ def test_hub_state_save_and_restore_replays_bit_identically(driver):
         (dict(nModules=5, dispatch=4), {}, "dispatch"),
         (dict(nModules=5, belowMinimum=1), dict(standbyDuration=-1.0), "standbyDuration"),
         (dict(nModules=5), dict(parameterSpread=0.7), "parameterSpread"),
+        (dict(nModules=5, dispatch=2, belowMinimum=1, initialStandby=6), {}, "initialStandby"),
+        (dict(nModules=5, initialStandby=-1), {}, "initialStandby"),
     ],
 )
 def test_bad_hub_settings_are_refused_by_name(driver, integers_, reals, words):

@@ -645,3 +645,76 @@ fn target_dispatch_counts_for_the_base_and_shares_a_request_among_the_running_mo
         hub.count_in(OperatingState::Standby)
     );
 }
+
+#[test]
+fn modules_held_in_warm_standby_at_the_start_draw_standby_power_and_start_warm() {
+    let p = Parameters::default();
+    let op = OperationParameters::default();
+    let cfg = HubConfig {
+        initial_standby: 3,
+        ..config(10, DispatchPolicy::Sequential, BelowMinimum::Standby)
+    };
+    // 40 % of 10 modules at 100 % each: 4 run, 3 wait warm, 3 are idle.
+    let mut hub = Hub::new(p, cfg, Demand::Setpoint(40.0)).unwrap();
+    let running = 4.0 * power_at_setpoint(&p, 100.0);
+    assert_eq!(
+        [
+            OperatingState::Steady,
+            OperatingState::Standby,
+            OperatingState::Idle
+        ]
+        .map(|s| hub.count_in(s)),
+        [4, 3, 3]
+    );
+    assert!((hub.power() - (running + 3.0 * op.standby_power)).abs() <= 1e-9 * running);
+    // Asked for all 10: the warm three run after warmStartTime, the cold three after
+    // coldStartTime.
+    let warm_started = op.warm_start_time + 1.0;
+    run(&mut hub, Demand::Setpoint(100.0), warm_started, 1.0);
+    assert_eq!(hub.count_in(OperatingState::Steady), 7);
+    assert_eq!(hub.totals().warm_starts, 3);
+    run(&mut hub, Demand::Setpoint(100.0), op.cold_start_time, 1.0);
+    assert_eq!(hub.count_in(OperatingState::Steady), 10);
+    assert_eq!((hub.totals().starts, hub.totals().warm_starts), (6, 3));
+    // More than the modules not running: every one of them waits warm.
+    let all = HubConfig {
+        initial_standby: 10,
+        ..cfg
+    };
+    let hub = Hub::new(p, all, Demand::Setpoint(40.0)).unwrap();
+    assert_eq!(hub.count_in(OperatingState::Standby), 6);
+    // More than the hub has: refused by name.
+    let too_many = HubConfig {
+        initial_standby: 11,
+        ..cfg
+    };
+    let err = Hub::new(p, too_many, Demand::Setpoint(40.0)).unwrap_err();
+    assert_eq!(err.name, "initialStandby");
+}
+
+#[test]
+fn a_power_reference_with_modules_held_warm_starts_in_steady_state() {
+    let p = Parameters::default();
+    let op = OperationParameters::default();
+    let cfg = HubConfig {
+        initial_standby: 4,
+        dispatch_target: 80.0,
+        ..config(20, DispatchPolicy::Target, BelowMinimum::Standby)
+    };
+    let reference = 10.0 * power_at_setpoint(&p, 80.0);
+    let demand = Demand::Power(reference);
+    let mut hub = Hub::new(p, cfg, demand).unwrap();
+    assert_eq!(hub.count_in(OperatingState::Steady), 10);
+    assert_eq!(hub.count_in(OperatingState::Standby), 4);
+    // The hub draws the reference from the start: the running modules share what the warm
+    // ones leave, and stay there.
+    assert!((hub.power() - reference).abs() <= 1e-9 * reference);
+    let flow = hub.h2_flow();
+    let share = (reference - 4.0 * op.standby_power) / 10.0;
+    run(&mut hub, demand, 600.0, 1.0);
+    assert!((hub.h2_flow() - flow).abs() <= 1e-12 * flow);
+    assert!((hub.power() - reference).abs() <= 1e-9 * reference);
+    let current = hub.h2_flow() / (10.0 * p.h2_coefficient);
+    let drawn = (p.voltage_intercept + p.ohmic_resistance * current) * current;
+    assert!((drawn - share).abs() <= 1e-9 * share);
+}

@@ -1,0 +1,328 @@
+#!/usr/bin/env python3
+"""The configuration that earns the most from a set of reserve products sold together, at the
+energy cost it has: per base power, one running count (target dispatch), how many of the other
+modules wait in warm standby (the rest idle, cold) and one reserve control (the zero τn of the
+setpoint pre-filter) for every product, chosen to maximise the hourly value
+
+    V [€/h] = Σ_p price_p [€/(MW·h)] · C_p [MW] + hydrogen value [€/kg] · H [kg/h]
+
+C_p being the capacity of product p, prequalified as aem-prequalify does (its test programme on
+the FMU, the largest passing capacity by bisection), and H the hub's hydrogen production at the
+base power (the FMU's hubH2MassFlow in steady state). Every configuration draws the same power,
+the base power (hubPower, reported), so the electricity bought is the same; what a configuration
+costs is the hydrogen it does not make: fewer modules at a higher current work at a higher cell
+voltage, and the standby power of the modules kept warm comes out of the same base power (a
+warm module starts in warmStartTime, an idle one in coldStartTime).
+
+    python -m aem_electrolyser.reserves.portfolio [--modules 100] [--baseline 50,80]
+        [--prices "FCR-D up=1,FCR-D down=1"] [--hydrogen-value 0]
+        [--out out/portfolio]
+
+The search (deterministic, no random draw), one round of coordinate search: the running count
+by aem-prequalify --optimise-dispatch's search, on V with plain droop, each count with no module
+warm and with the most the base power allows (their standby power must leave every running
+module at least its minimum; at most the modules not running), the better of the two; the zero
+in [τp1, τp2] by --optimise's search, on V at that count; then the modules held warm, 0, ¼, ½,
+¾ or all of the most. Ties go to the fewest running modules, plain droop and the
+fewest warm modules. Against it, per baseline, plain droop with equal dispatch (where every
+module can run) and with sequential dispatch (the fewest modules), no module warm.
+
+Writes <out>/portfolio.md, .csv and .json, then prints one line per baseline and configuration.
+The capacities in % of rated power of a hub of N modules hold for any hub with the same running
+counts per module; the default 100 modules keep it to minutes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from aem_electrolyser import cli
+from aem_electrolyser.hub.runner import Hub, HubRunner
+from aem_electrolyser.reserves import dispatch_search, optimise, report
+from aem_electrolyser.reserves.prequalify import (
+    BELOW_MINIMUM,
+    BY_NAME,
+    baselines,
+    module_curve,
+    modules_count,
+    percent,
+    run_jobs,
+    time_constants,
+)
+
+DEFAULT_PRICES = {"FCR-D up": 1.0, "FCR-D down": 1.0}
+
+
+def prices(text):
+    """{product name: price [€/(MW·h)]} from "name=price,name=price"; each product once, each
+    price finite and ≥ 0."""
+    out = {}
+    for item in (x.strip() for x in str(text).split(",")):
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep:
+            raise argparse.ArgumentTypeError(f"{item!r} is not product=price (e.g. 'FCR-D up=10')")
+        if name not in BY_NAME:
+            raise argparse.ArgumentTypeError(
+                f"{name!r} is not a product; give one of {', '.join(BY_NAME)}{cli.did_you_mean(name, BY_NAME)}"
+            )
+        if name in out:
+            raise argparse.ArgumentTypeError(f"{name!r} is priced twice")
+        try:
+            out[name] = cli.non_negative(float)(value.strip())
+        except argparse.ArgumentTypeError as e:
+            raise argparse.ArgumentTypeError(f"{name}'s price {e}") from None
+    return out
+
+
+def parser():
+    p = cli.CommandLine(description=__doc__)
+    cli.add_fmu_option(p)
+    p.add_argument("--modules", type=modules_count, default=100, help="modules of the hub [default: 100]")
+    p.add_argument(
+        "--baseline", type=baselines, default=[0.5, 0.8], help="baselines in %% of rated power [default: 50,80]"
+    )
+    p.add_argument(
+        "--prices",
+        type=prices,
+        default=DEFAULT_PRICES,
+        help="the products sold together and their capacity prices [€/(MW·h)], as 'name=price,...' "
+        "[default: 'FCR-D up=1,FCR-D down=1': the megawatts sold]",
+    )
+    p.add_argument(
+        "--hydrogen-value", type=cli.non_negative(float), default=0.0, help="€/kg of hydrogen made [default: 0]"
+    )
+    p.add_argument("--dt", type=cli.positive(float), default=0.1, help="test step [s] [default: 0.1]")
+    p.add_argument(
+        "--jobs", type=cli.positive(int), default=os.cpu_count() or 1, help="worker processes [default: one per core]"
+    )
+    cli.add_out_option(p, Path("out") / "portfolio", "the portfolio's tables")
+    return p
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """One way to run the hub at a baseline and what it earns: running modules, modules held in
+    warm standby, the zero [s], capacities {product: W}, the hub's power [W] and hydrogen
+    production [kg/h] in steady state, and the hourly value [€/h]."""
+
+    name: str
+    hub: Hub
+    count: int
+    standby: int
+    zero: float
+    capacities: dict
+    power: float
+    hydrogen: float
+    value: float
+
+
+class Portfolio:
+    """Capacities (each hub × product assessed once, through aem-prequalify's pool), steady
+    states and values of the configurations tried."""
+
+    def __init__(self, args):
+        self.args, self.done, self.steady_states = args, {}, {}
+        self.curve = module_curve(args)
+        from fmpy import read_model_description
+
+        start = {v.name: v.start for v in read_model_description(str(args.fmu)).modelVariables}
+        self.standby_power = float(start["standbyPower"])  # W
+        self.rated = args.modules * self.curve.power(self.curve.max_setpoint)
+        self.taus = time_constants(args)
+        self.products = list(args.prices)
+
+    def hub(self, base, count, zero, standby=0):
+        """Target dispatch running `count` modules at baseline `base`, `standby` of the others
+        warm; plain droop at zero = τz."""
+        target = dispatch_search.target_setpoint(count, base * self.rated, self.curve)
+        filter_zero = 0.0 if zero == self.taus[0] else zero
+        return Hub(
+            self.args.modules,
+            4,
+            BELOW_MINIMUM[4],
+            base,
+            False,
+            (),
+            filter_zero,
+            dispatch_target=target,
+            initial_standby=standby,
+        )
+
+    def reference_hub(self, base, policy):
+        return Hub(self.args.modules, policy, BELOW_MINIMUM[policy], base)
+
+    def configurations(self, named):
+        """[Configuration] of (name, hub, count, zero) tuples, their jobs run together."""
+        keys = [(hub, p) for _, hub, _, _ in named for p in self.products]
+        todo = [k for k in dict.fromkeys(keys) if k not in self.done]
+        if todo:
+            self.done.update(run_jobs(self.args, todo))
+        out = []
+        for name, hub, count, zero in named:
+            capacities = {p: self.done[(hub, p)][0].sellable for p in self.products}
+            power, hydrogen = self.steady(hub)
+            value = self.value(capacities, hydrogen)
+            out.append(Configuration(name, hub, count, hub.initial_standby, zero, capacities, power, hydrogen, value))
+        return out
+
+    def steady(self, hub):
+        """(hubPower [W], hubH2MassFlow [kg/h]) of the hub at its baseline, from the FMU."""
+        if hub not in self.steady_states:
+            runner = HubRunner(self.args.fmu, hub)
+            try:
+                state = runner.steady(["hubPower", "hubH2MassFlow"])
+            finally:
+                runner.close()
+            self.steady_states[hub] = (state["hubPower"], state["hubH2MassFlow"])
+        return self.steady_states[hub]
+
+    def value(self, capacities, hydrogen):
+        """V [€/h] = Σ price·C [MW] + hydrogen value·H [kg/h]."""
+        a = self.args
+        return sum(a.prices[p] * c / 1e6 for p, c in capacities.items()) + a.hydrogen_value * hydrogen
+
+    def most_warm(self, base, count):
+        """The most modules that can wait warm beside `count` running ones at baseline `base`: their
+        standby power comes out of the base power, which must leave each running module at least
+        its minimum, (B − n·P(m))/standbyPower, and no more than the modules not running."""
+        room = base * self.rated - count * self.curve.power(self.curve.min_setpoint)
+        idle = self.args.modules - count
+        if self.standby_power <= 0.0:
+            return idle
+        return max(0, min(idle, math.floor(room / self.standby_power + 1e-9)))
+
+    def best(self, base):
+        """The best configuration at baseline `base` and the references, best first."""
+        tau_zero, t1, t2 = self.taus
+        counts = dispatch_search.feasible_counts(self.args.modules, base * self.rated, self.curve)
+
+        def values(named):
+            return [c.value for c in self.configurations(named)]
+
+        warm_at = {}  # count → the modules held warm with it in the count search (none or the most)
+
+        def by_count(ns):
+            ends = [(n, k) for n in ns for k in dict.fromkeys((0, self.most_warm(base, n)))]
+            found = self.configurations([("", self.hub(base, n, tau_zero, k), n, tau_zero) for n, k in ends])
+            for c in found:  # the first of equals: no module warm
+                if c.count not in warm_at or c.value > warm_at[c.count].value:
+                    warm_at[c.count] = c
+            return [warm_at[n].value for n in ns]
+
+        dispatch = dispatch_search.search(by_count, counts)
+        n, k = dispatch.count, warm_at[dispatch.count].standby
+        control = optimise.search(
+            lambda zs: values([("", self.hub(base, n, z, k), n, z) for z in zs]),
+            min(t1, t2),
+            max(t1, t2),
+            known=(tau_zero,),
+        )
+        zero = control.best.zero if control.best.capacity > dispatch.capacity else tau_zero
+        most = self.most_warm(base, n)
+        warm = [("", self.hub(base, n, zero, k), n, zero) for k in sorted({round(most * q / 4) for q in range(5)})]
+        best = max(self.configurations(warm), key=lambda c: c.value)  # the first of equals: the fewest warm
+        named = [("best", best.hub, n, zero)]
+        if base * self.rated >= self.args.modules * self.curve.power(self.curve.min_setpoint) - 1e-9:
+            named.append(("equal, plain droop", self.reference_hub(base, 1), self.args.modules, tau_zero))
+        named.append(("sequential, plain droop", self.reference_hub(base, 2), counts[0], tau_zero))
+        return self.configurations(named)
+
+
+def rows_of(portfolio, base, configurations):
+    rated, curve = portfolio.rated, portfolio.curve
+    rows = []
+    for c in configurations:
+        setpoint = c.hub.dispatch_target if c.hub.dispatch == 4 else curve.setpoint(base * rated / c.count)
+        rows.append(
+            {
+                "baseline [% of rated]": float(percent(base)),
+                "configuration": c.name,
+                "running modules [1]": c.count,
+                "warm standby [1]": c.standby,
+                "setpoint [%]": setpoint,
+                "reserve filter zero [s]": c.zero,
+                **{f"{p} [W]": w for p, w in c.capacities.items()},
+                "hub power [W]": c.power,
+                "hydrogen [kg/h]": c.hydrogen,
+                "value [EUR/h]": c.value,
+            }
+        )
+    return rows
+
+
+def write(out, rows, portfolio, elapsed):
+    args, rated = portfolio.args, portfolio.rated
+    (out / "portfolio.json").write_text(json.dumps(rows, indent=2) + "\n")
+    with open(out / "portfolio.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(rows[0])
+        for row in rows:
+            w.writerow([f"{v:.9g}" if isinstance(v, float) else v for v in row.values()])
+    sold = ", ".join(f"{p} at {v:g} €/(MW·h)" for p, v in args.prices.items())
+    lines = [
+        f"# Reserve products sold together ({args.modules} modules, rated {rated / 1e3:.1f} kW)",
+        "",
+        f"**{report.DISCLAIMER}**",
+        "",
+        f"Sold together: {sold}; hydrogen at {args.hydrogen_value:g} €/kg. Value V = Σ price · capacity "
+        "+ hydrogen value · production; every configuration draws the base power. Capacities in % of "
+        f"rated power. {elapsed:.0f} s on this machine.",
+        "",
+        "| baseline | configuration | running modules | warm standby | setpoint | zero | "
+        + " | ".join(portfolio.products)
+        + " | hub power | hydrogen | value |",
+        "|---" * (9 + len(portfolio.products)) + "|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['baseline [% of rated]']:g} % | {r['configuration']} | {r['running modules [1]']} | "
+            f"{r['warm standby [1]']} | "
+            f"{r['setpoint [%]']:.4g} % | {r['reserve filter zero [s]']:.4g} s | "
+            + " | ".join(f"{100 * r[f'{p} [W]'] / rated:.2f} %" for p in portfolio.products)
+            + f" | {r['hub power [W]'] / 1e3:.2f} kW | {r['hydrogen [kg/h]']:.4g} kg/h | {r['value [EUR/h]']:.4g} €/h |"
+        )
+    (out / "portfolio.md").write_text("\n".join(lines) + "\n")
+
+
+def main(argv=None):
+    p = parser()
+    args = p.parse_args(argv)
+    args.fmu = cli.resolve_fmu(p, args)
+    args.settings = ()
+    cli.writable_folder(args.out)
+    portfolio = Portfolio(args)
+    low = [b for b in args.baseline if b * portfolio.rated < portfolio.curve.power(portfolio.curve.min_setpoint)]
+    if low:
+        p.error(f"--baseline: {100 * low[0]:g} % is below one module at minSetpoint")
+    start = time.perf_counter()
+    rows = []
+    for base in cli.progress(args.baseline, desc="portfolio", unit="baseline", quiet=args.quiet):
+        rows += rows_of(portfolio, base, portfolio.best(base))
+    elapsed = time.perf_counter() - start
+    write(args.out, rows, portfolio, elapsed)
+    for r in rows:
+        cli.say(
+            args,
+            f"{r['baseline [% of rated]']:>3g} % {r['configuration']:<24} {r['running modules [1]']:>6} modules "
+            f"({r['warm standby [1]']} warm), "
+            f"zero {r['reserve filter zero [s]']:.4g} s: "
+            + ", ".join(f"{p} {100 * r[f'{p} [W]'] / portfolio.rated:.2f} %" for p in portfolio.products)
+            + f", {r['hydrogen [kg/h]']:.4g} kg/h, {r['value [EUR/h]']:.4g} €/h",
+        )
+    cli.say(args, f"{len(portfolio.done)} assessments in {elapsed:.0f} s; the tables in {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    cli.run_command(main)
+
+
+__all__ = ["Configuration", "Portfolio", "main", "parser", "prices"]

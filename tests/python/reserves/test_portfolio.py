@@ -1,0 +1,124 @@
+"""Reserve products sold together (aem_electrolyser.reserves.portfolio), on the packaged FMU: a
+small hub selling upward and downward FCR-D at half its rated power. The hydrogen of every
+configuration follows Faraday's law at the current that draws the running modules' share of the
+power reference, its value follows the prices, the best configuration earns at least what the
+references earn, and assessed again from scratch it sells what the table says."""
+
+import csv
+import json
+import math
+
+import pytest
+
+from aem_electrolyser.hub.runner import Hub, HubRunner
+from aem_electrolyser.reserves import assess
+from aem_electrolyser.reserves.products import BY_NAME
+from commands import run
+from conftest import PAPER, module_power
+
+N, BASELINE, DT = 10, 0.5, 0.2
+PRICES = {"FCR-D up": 3.0, "FCR-D down": 2.0}  # €/(MW·h)
+HYDROGEN_VALUE = 5.0  # €/kg
+#: The mass of a normal litre of hydrogen [kg/Nl]: its molar mass over an ideal gas's molar
+#: volume at 0 °C and 1 atm.
+KG_PER_NL = 2.01588e-3 / 22.413969
+STANDBY_POWER = 100.0  # W, the FMU's standbyPower
+
+
+@pytest.fixture(scope="module")
+def portfolio(fmu_path, tmp_path_factory):
+    out = tmp_path_factory.mktemp("portfolio")
+    done = run(
+        [
+            "-m",
+            "aem_electrolyser.reserves.portfolio",
+            "--fmu",
+            fmu_path,
+            "--modules",
+            N,
+            "--baseline",
+            100 * BASELINE,
+            "--prices",
+            ",".join(f"{p}={v}" for p, v in PRICES.items()),
+            "--hydrogen-value",
+            HYDROGEN_VALUE,
+            "--dt",
+            DT,
+            "--out",
+            out,
+        ],
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    with open(out / "portfolio.csv", newline="") as f:
+        header = next(csv.reader(f))
+    return header, {r["configuration"]: r for r in json.loads((out / "portfolio.json").read_text())}
+
+
+def current_for(power):
+    """The current [A] at which one module draws `power` [W]: the root of (V0 + R·I)·I = P."""
+    v0, r = PAPER["voltageIntercept"], PAPER["ohmicResistance"]
+    return (-v0 + math.sqrt(v0 * v0 + 4.0 * r * power)) / (2.0 * r)
+
+
+def test_hydrogen_power_and_value_follow_faraday_and_the_prices(portfolio):
+    header, rows = portfolio
+    assert all("[" in name for name in header if name != "configuration")  # units in every header
+    # At half the rated power no equal split fits the 60 % window: best and sequential only.
+    assert set(rows) == {"best", "sequential, plain droop"}
+    reference = BASELINE * N * module_power(PAPER["maxSetpoint"])
+    for name, row in rows.items():
+        n = row["running modules [1]"]
+        # The hub draws the power reference: the running modules share what the warm ones'
+        # standby power leaves of it.
+        assert row["hub power [W]"] == pytest.approx(reference, rel=1e-9), name
+        share = (reference - row["warm standby [1]"] * STANDBY_POWER) / n
+        hydrogen = n * PAPER["h2Coefficient"] * current_for(share) * KG_PER_NL
+        assert row["hydrogen [kg/h]"] == pytest.approx(hydrogen, rel=1e-9), name
+        value = sum(PRICES[p] * row[f"{p} [W]"] / 1e6 for p in PRICES) + HYDROGEN_VALUE * hydrogen
+        assert row["value [EUR/h]"] == pytest.approx(value, rel=1e-9, abs=1e-12), name
+    # More modules at a lower current make more hydrogen of the same power; the best
+    # configuration runs more than the fewest and earns at least what they earn.
+    best, fewest = rows["best"], rows["sequential, plain droop"]
+    assert best["running modules [1]"] > fewest["running modules [1]"]
+    assert best["hydrogen [kg/h]"] > fewest["hydrogen [kg/h]"]
+    assert best["value [EUR/h]"] >= fewest["value [EUR/h]"]
+
+
+def test_the_best_configuration_sells_what_the_table_says_when_assessed_anew(fmu_path, portfolio):
+    best = portfolio[1]["best"]
+    zero = best["reserve filter zero [s]"]
+    plain = zero == pytest.approx(PAPER["tauZero"], rel=1e-12)
+    hub = Hub(
+        N,
+        4,
+        1,
+        BASELINE,
+        filter_zero=0.0 if plain else zero,
+        dispatch_target=best["setpoint [%]"],
+        initial_standby=best["warm standby [1]"],
+    )
+    runner = HubRunner(fmu_path, hub)
+    try:
+        counts = runner.steady(["modulesRunning", "modulesStandby"])
+        assert counts == {"modulesRunning": best["running modules [1]"], "modulesStandby": best["warm standby [1]"]}
+        for product in PRICES:
+            result = assess.largest(runner, BY_NAME[product], DT)[0]
+            assert result.sellable == pytest.approx(best[f"{product} [W]"], rel=1e-12), product
+    finally:
+        runner.close()
+
+
+@pytest.mark.parametrize(
+    "prices, message",
+    [
+        ("FCR-D up", "is not product=price"),
+        ("FCR-D sideways=1", "is not a product"),
+        ("FCR-D up=1,FCR-D up=2", "is priced twice"),
+        ("FCR-D up=-1", "FCR-D up"),
+    ],
+)
+def test_a_bad_price_list_is_refused_before_any_work(prices, message, tmp_path):
+    done = run(["-m", "aem_electrolyser.reserves.portfolio", "--prices", prices, "--out", tmp_path])
+    assert done.returncode == 2 and message in done.stderr and "Traceback" not in done.stderr
+    assert not any(tmp_path.iterdir())
