@@ -26,8 +26,6 @@ power over the baseline, one panel per product). The percentages of a hub of N m
 any hub with the same running counts per module; the default 100 modules keep it to minutes.
 """
 
-import csv
-import json
 import os
 import time
 from pathlib import Path
@@ -259,12 +257,7 @@ def main(argv=None):
 
 
 def write(out, rows, rated, elapsed, modules):
-    (out / "table.json").write_text(json.dumps(rows, indent=2) + "\n")
-    with open(out / "table.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(rows[0])
-        for row in rows:
-            w.writerow(["" if v is None else f"{v:.6g}" if isinstance(v, float) else v for v in row.values()])
+    report.write_rows(out / "table", rows)
     pct = lambda w: "–" if w is None else f"{100 * w / rated:.1f}"  # noqa: E731
     lines = [
         f"# Reserve capacity over the base power ({modules} modules, rated {rated / 1e3:.1f} kW; % of rated)",

@@ -35,8 +35,6 @@ counts per module; the default 100 modules keep it to minutes.
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 import math
 import os
 import time
@@ -260,12 +258,7 @@ def rows_of(portfolio, base, configurations):
 
 def write(out, rows, portfolio, elapsed):
     args, rated = portfolio.args, portfolio.rated
-    (out / "portfolio.json").write_text(json.dumps(rows, indent=2) + "\n")
-    with open(out / "portfolio.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(rows[0])
-        for row in rows:
-            w.writerow([f"{v:.9g}" if isinstance(v, float) else v for v in row.values()])
+    report.write_rows(out / "portfolio", rows, digits=9)
     sold = ", ".join(f"{p} at {v:g} €/(MW·h)" for p, v in args.prices.items())
     lines = [
         f"# Reserve products sold together ({args.modules} modules, rated {rated / 1e3:.1f} kW)",

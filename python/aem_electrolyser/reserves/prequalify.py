@@ -58,7 +58,6 @@ approval; rules that could not be confirmed are reported as unsure (informative)
 
 import argparse
 import csv
-import json
 import multiprocessing
 import os
 import queue
@@ -584,15 +583,9 @@ def write_optimum(args, optimum, done, rated):
                 "tried [(s, W)]": found.table(),
             }
         )
-    with open(args.out / "optimum.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        keys = [k for k in rows[0] if k not in ("margins at the optimum [1]", "tried [(s, W)]", "limiting detail")]
-        w.writerow(keys)
-        for row in rows:
-            w.writerow(
-                ["" if row[k] is None else (f"{row[k]:.6g}" if isinstance(row[k], float) else row[k]) for k in keys]
-            )
-    (args.out / "optimum.json").write_text(json.dumps(rows, indent=2) + "\n")
+    report.write_rows(
+        args.out / "optimum", rows, leave_out=("margins at the optimum [1]", "tried [(s, W)]", "limiting detail")
+    )
     cell = lambda w: "–" if w is None else power_text(w)  # noqa: E731
     lines = [
         f"# The reserve control that sells the most (rated power {rated / 1e6:.4g} MW)",
@@ -681,15 +674,7 @@ def write_dispatch_optimum(args, dispatched, rated):
                 "counts tried [(1, W)]": found.table(),
             }
         )
-    (args.out / "dispatch_optimum.json").write_text(json.dumps(rows, indent=2) + "\n")
-    with open(args.out / "dispatch_optimum.csv", "w", newline="") as f:
-        w = csv.writer(f)
-        keys = [k for k in rows[0] if k != "counts tried [(1, W)]"]
-        w.writerow(keys)
-        for row in rows:
-            w.writerow(
-                ["" if row[k] is None else (f"{row[k]:.6g}" if isinstance(row[k], float) else row[k]) for k in keys]
-            )
+    report.write_rows(args.out / "dispatch_optimum", rows, leave_out=("counts tried [(1, W)]",))
     cell = lambda w: "–" if w is None else power_text(w)  # noqa: E731
     lines = [
         f"# The dispatch that sells the most (rated power {rated / 1e6:.4g} MW, plain droop)",

@@ -250,6 +250,24 @@ def write_csv(path, sections: Sequence[Section], rated_power: float) -> Path:
     return path
 
 
+def write_rows(stem, rows: Sequence[dict], leave_out: Sequence[str] = (), digits: int = 6) -> None:
+    """<stem>.json with every row whole, and <stem>.csv with its columns but `leave_out` (lists
+    and free text): numbers to `digits` significant digits, None as an empty cell."""
+    stem = Path(stem)
+    stem.with_suffix(".json").write_text(json.dumps(rows, indent=2) + "\n")
+    keys = [k for k in rows[0] if k not in leave_out]
+    with stem.with_suffix(".csv").open("w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(keys)
+        for row in rows:
+            w.writerow(
+                [
+                    "" if row[k] is None else f"{row[k]:.{digits}g}" if isinstance(row[k], float) else row[k]
+                    for k in keys
+                ]
+            )
+
+
 def _finite(x):
     """JSON has no inf/NaN: non-finite numbers become null (e.g. a never-reached activation)."""
     if isinstance(x, float) and not np.isfinite(x):
