@@ -159,8 +159,8 @@ def build(platform, cargo_args, extra_env=None):
 
 def test(cargo_test_args):
     """Runs the workspace's tests built for linux64 by cargo zigbuild as the release is (its
-    profile, target folder and compiled crates: only the test targets are compiled anew), so the
-    tests run the code that ships. Debug assertions and overflow checks are the fast lane's
+    profile; in its target folder, or CARGO_TARGET_DIR's, where scripts/test.sh runs them beside
+    pytest), so the tests run the code that ships. Debug assertions and overflow checks are the fast lane's
     (scripts/check.sh: the unit tests in the dev profile) and the fuzzers'. Returns cargo's exit
     status."""
     build_argv, env = command(LINUX64, ["--workspace", "--locked"])

@@ -31,8 +31,8 @@ phase bash scripts/setup.sh
 phase .venv/bin/ruff check --quiet python tests benches packaging fuzz scripts
 phase cargo fmt --check
 phase .venv/bin/python packaging/release.py
-# The Rust tests (packaging/platforms.py test: the release build's crates, only the test targets
-# compiled anew; their own target folder) and the fuzzers' sanitizer build (fuzz/target;
+# The Rust tests (packaging/platforms.py test, built with the release's profile) and the
+# fuzzers' sanitizer build (fuzz/target;
 # unoptimised here, which builds in half the time: 5 s a target are a smoke test) run at the
 # lowest priority beside pytest: they take the CPU that pytest leaves idle while its
 # co-simulations and commands wait, and hardly any from the tests themselves (none of which
@@ -41,7 +41,11 @@ phase .venv/bin/python packaging/release.py
 phase .venv/bin/python packaging/platforms.py fmi-crate-master --platforms linux64
 export FUZZ_PROFILE="${FUZZ_PROFILE:-dev}"
 mkdir -p target
-nice -n 19 .venv/bin/python packaging/platforms.py test >target/rust-tests.log 2>&1 &
+# The Rust tests build in a target folder of their own (the release's profile and flags, so the
+# same code): in the checkout's, cargo's lock on it would hold up the tests that rebuild the FMU
+# with identified parameters until the Rust tests' build ended.
+CARGO_TARGET_DIR="$PWD/target/rust-tests" nice -n 19 .venv/bin/python packaging/platforms.py test \
+  >target/rust-tests.log 2>&1 &
 rust_tests=$!
 nice -n 19 bash scripts/fuzz.sh build >target/fuzz-build.log 2>&1 &
 fuzz_build=$!
