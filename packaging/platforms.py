@@ -159,8 +159,8 @@ def build(platform, cargo_args, extra_env=None):
 
 def test(cargo_test_args):
     """Runs the workspace's tests built for linux64 by cargo zigbuild as the release is (its
-    profile; in its target folder, or CARGO_TARGET_DIR's, where scripts/test.sh runs them beside
-    pytest), so the tests run the code that ships. Debug assertions and overflow checks are the fast lane's
+    profile, target folder and compiled crates: only the test targets are compiled anew), so the
+    tests run the code that ships. Debug assertions and overflow checks are the fast lane's
     (scripts/check.sh: the unit tests in the dev profile) and the fuzzers'. Returns cargo's exit
     status."""
     build_argv, env = command(LINUX64, ["--workspace", "--locked"])
@@ -176,10 +176,9 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description="Build a command of the workspace for each platform.")
     parser.add_argument(
         "tool",
-        choices=["aem-identify", "aem-run", "all", "fmi-crate-master", "test"],
+        choices=["aem-identify", "aem-run", "all", "test"],
         help="the command to build, all: the workspace (the FMU's library and both commands), "
-        "fmi-crate-master: the `fmi` crate's FMU importer (examples/fmi_crate_master.rs, for the "
-        "importer tests), or test: run the workspace's tests built for linux64",
+        "or test: run the workspace's tests built for linux64",
     )
     parser.add_argument("cargo_test_args", nargs="*", help="with test: after --, passed to cargo test")
     parser.add_argument("--platforms", default=",".join(PLATFORMS), help="comma-separated FMI platforms")
@@ -198,9 +197,7 @@ def main(argv=None):
     for name in names:
         if name not in PLATFORMS:
             parser.error(f"unknown platform {name}; choose from {', '.join(PLATFORMS)}")
-    if args.tool == "fmi-crate-master" and names != [LINUX64.name]:
-        parser.error("fmi-crate-master is built for linux64 only (--platforms linux64)")
-    tools = {"all": ["aem-identify", "aem-run"], "fmi-crate-master": ["fmi_crate_master"]}.get(args.tool, [args.tool])
+    tools = ["aem-identify", "aem-run"] if args.tool == "all" else [args.tool]
     if args.dest is not None and len(names) > 1:
         parser.error("--dest takes the commands of one platform")
     outputs = {
@@ -213,10 +210,6 @@ def main(argv=None):
     def build_one(name):
         if args.tool == "all":  # the library from the repository's model description (package.py checks its GUID)
             release, _ = build(platform(name, args.native), ["--workspace", "--locked"], {"AEM_MODEL_DESCRIPTION": ""})
-        elif args.tool == "fmi-crate-master":
-            # A copy of its own: the Rust tests build the examples again in the same folder.
-            release, _ = build(platform(name, args.native), ["--example", "fmi_crate_master", "--locked"])
-            release = release / "examples"
         else:
             release, _ = build(platform(name, args.native), ["--bin", args.tool, "--package", args.tool, "--locked"])
         for output in outputs[name]:

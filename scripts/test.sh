@@ -2,13 +2,12 @@
 # Quick start, command 2: every test. Installs everything (scripts/setup.sh), lints the Python,
 # builds the release bundle into dist/ (packaging/release.py: the workspace for linux64 against
 # glibc 2.17 and for win64, the two-platform FMU, both wheels, the sdist, the plain aem-identify
-# downloads, SHA256SUMS), then runs the pytest suite and beside it, at the lowest priority, the
-# Rust tests (model, C ABI in process, the packaged .fmu through the `fmi` crate, aem-identify on
-# synthetic campaigns) and the fuzzers' build; the pytest suite covers (the
+# downloads, SHA256SUMS), then runs the Rust tests (model, C ABI in process, the packaged .fmu
+# through the `fmi` crate, aem-identify on synthetic campaigns) and the pytest suite (the
 # packaged .fmu through fmpy and five more importers, the win64 DLL and the commands under Wine,
 # the glibc level, the installed wheels and the sdist, the examples, the frameworks, reserves,
-# aem-study on Dask, the documentation site built strictly into target/site), then fuzzes each
-# byte-level input (scripts/fuzz.sh).
+# aem-study on Dask, the documentation site built strictly into target/site; beside it, at the
+# lowest priority, the fuzzers' build), then fuzzes each byte-level input (scripts/fuzz.sh).
 # Each phase's time is printed on stderr. The checkout's commands (aem-identify, aem-run) are the
 # release's portable builds in target/dist/linux64/ (aem_electrolyser.locate takes the newer of those and a
 # target/release/ build of yours).
@@ -31,33 +30,17 @@ phase bash scripts/setup.sh
 phase .venv/bin/ruff check --quiet python tests benches packaging fuzz scripts
 phase cargo fmt --check
 phase .venv/bin/python packaging/release.py
-# The Rust tests (packaging/platforms.py test, built with the release's profile) and the
-# fuzzers' sanitizer build (fuzz/target;
-# unoptimised here, which builds in half the time: 5 s a target are a smoke test) run at the
-# lowest priority beside pytest: they take the CPU that pytest leaves idle while its
-# co-simulations and commands wait, and hardly any from the tests themselves (none of which
-# measures wall-clock speed against a tight bound). Each one's output is printed when it ends.
-# The `fmi` crate's importer, which the pytest suite runs, is built first (a copy of its own).
-phase .venv/bin/python packaging/platforms.py fmi-crate-master --platforms linux64
+phase .venv/bin/python packaging/platforms.py test
+# The fuzzers' sanitizer build (its own folder, fuzz/target; unoptimised here, which builds in
+# half the time: 5 s a target are a smoke test) runs at the lowest priority beside pytest: it
+# takes the CPU that pytest leaves idle while its co-simulations and commands wait, and hardly
+# any from the tests themselves.
 export FUZZ_PROFILE="${FUZZ_PROFILE:-dev}"
 mkdir -p target
-# The Rust tests build in a target folder of their own (the release's profile and flags, so the
-# same code): in the checkout's, cargo's lock on it would hold up the tests that rebuild the FMU
-# with identified parameters until the Rust tests' build ended.
-CARGO_TARGET_DIR="$PWD/target/rust-tests" nice -n 19 .venv/bin/python packaging/platforms.py test \
-  >target/rust-tests.log 2>&1 &
-rust_tests=$!
 nice -n 19 bash scripts/fuzz.sh build >target/fuzz-build.log 2>&1 &
 fuzz_build=$!
-trap 'kill $rust_tests $fuzz_build ${fuzz_run:-} 2>/dev/null || true' EXIT
+trap 'kill $fuzz_build ${fuzz_run:-} 2>/dev/null || true' EXIT
 phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup -m "not serial" --durations=20
-rust_tested() {
-  local status=0
-  wait $rust_tests || status=$?
-  grep -E "^(test result|     Running|failures:|---- )" target/rust-tests.log >&2 || true
-  [ "$status" -eq 0 ] || { cat target/rust-tests.log >&2; return 1; }
-}
-phase rust_tested
 fuzz_built() { wait $fuzz_build || { cat target/fuzz-build.log >&2; return 1; }; }
 phase fuzz_built
 # 5 s a target here: every harness builds and finds nothing in reach; the long runs (release

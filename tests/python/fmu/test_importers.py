@@ -3,7 +3,7 @@
 1. The setpoint schedule of tests/data/importer_schedule.csv runs through
    - a C master compiled here against the FMI 2.0 headers of the fmi-sys crate
      (tests/c_master: dlopen, all 34 functions resolved, every status checked),
-   - the `fmi` crate (examples/fmi_crate_master.rs, as scripts/test.sh builds it),
+   - the `fmi` crate (examples/fmi_crate_master.rs, as the Rust tests built it),
    - fmpy's FMU2Slave (in this process),
    with the same communication points, and the three outputs must be identical bit for bit:
    it is one binary doing the same arithmetic, so any difference is an importer calling it
@@ -31,13 +31,17 @@ import pytest
 
 from conftest import PAPER, ROOT, Driver, modal_weights, unlimited_step_response
 
-# the fmi crate's master (built by scripts/test.sh), valgrind
+# the fmi crate's master built by the Rust tests, valgrind
 pytestmark = [pytest.mark.slow]
 
 SCHEDULE = ROOT / "tests" / "data" / "importer_schedule.csv"
-#: The `fmi` crate's importer (examples/fmi_crate_master.rs), as scripts/test.sh builds it:
-#: packaging/platforms.py fmi-crate-master --platforms linux64.
-FMI_CRATE_MASTER = ROOT / "target" / "dist" / "linux64" / "fmi_crate_master"
+FMI_CRATE_MASTER = (
+    Path(os.environ.get("CARGO_TARGET_DIR", ROOT / "target"))
+    / "x86_64-unknown-linux-gnu"
+    / "release"
+    / "examples"
+    / "fmi_crate_master"
+)
 STEP, STOP = 0.5, 1500.0
 COLUMNS = ("time", "current", "voltage", "power", "h2Flow", "energy", "h2Produced")
 C_SOURCES = [ROOT / "tests" / "c_master" / name for name in ("master.c", "fmu.c", "bad_calls.c")]
@@ -134,12 +138,11 @@ def run_c_master(c_master, fmu_dir, out):
 
 
 def run_fmi_crate(fmu_path, out):
-    # The numbers come from the packaged FMU's binary, whichever profile built the master.
+    # The example as the Rust tests built it (cargo test builds the examples; scripts/test.sh
+    # runs them as packaging/platforms.py test: linux64, bench profile). The numbers come from
+    # the packaged FMU's binary, whichever profile built the master.
     if not FMI_CRATE_MASTER.is_file():
-        pytest.fail(
-            f"{FMI_CRATE_MASTER} not found: scripts/test.sh builds it "
-            "(packaging/platforms.py fmi-crate-master --platforms linux64)"
-        )
+        pytest.fail(f"{FMI_CRATE_MASTER} not found: scripts/test.sh builds it (packaging/platforms.py test)")
     run(
         [FMI_CRATE_MASTER, "--fmu", fmu_path, "--schedule", SCHEDULE, "--step", STEP, "--stop", STOP, "--out", out],
         cwd=ROOT,
