@@ -39,7 +39,7 @@ from aem_electrolyser.reserves.prequalify import (
     baselines,
     modules_count,
     percent,
-    run_jobs,
+    Jobs,
     time_constants,
 )
 
@@ -76,12 +76,13 @@ def parser():
 
 
 class Table:
-    """The jobs of every cell, run through aem-prequalify's pool; each hub × product once."""
+    """The jobs of every cell, run through aem-prequalify's pool (`jobs`, a prequalify.Jobs);
+    each hub × product once."""
 
-    def __init__(self, args):
+    def __init__(self, args, jobs=None):
         from fmpy import read_model_description
 
-        self.args, self.done = args, {}
+        self.args, self.jobs = args, jobs
         start = {v.name: v.start for v in read_model_description(str(args.fmu)).modelVariables}
         names = ("gain", "voltageIntercept", "ohmicResistance", "minSetpoint", "maxSetpoint")
         self.curve = dispatch_search.ModuleCurve(*(float(start[n]) for n in names))
@@ -91,11 +92,8 @@ class Table:
         self.taus = time_constants(args)
 
     def capacities(self, hubs, product):
-        keys = [(h, product.name) for h in hubs]
-        todo = [k for k in dict.fromkeys(keys) if k not in self.done]
-        if todo:
-            self.done.update(run_jobs(self.args, todo))
-        return [self.done[k][0].sellable for k in keys]
+        done = self.jobs.run([(h, product.name) for h in hubs])
+        return [done[(h, product.name)][0].sellable for h in hubs]
 
     def hub(self, dispatch, base, compensation=False, zero=0.0, count=None):
         a = self.args
@@ -224,14 +222,18 @@ def main(argv=None):
     cli.writable_folder(args.out)
     table = Table(args)
     products = [BY_NAME[n] for n in args.products]
-    start = time.perf_counter()
-    rows = []
     low = [b for b in args.baseline if b * table.rated < table.curve.power(table.curve.min_setpoint)]
     if low:
         p.error(f"--baseline: {100 * low[0]:g} % is below one module at minSetpoint")
-    cells = [(base, product) for base in args.baseline for product in products]
-    for base, product in cli.progress(cells, desc="operating table", unit="cell", quiet=args.quiet):
-        values, details = table.cell(base, product)
+    start = time.perf_counter()
+    with Jobs(args, desc="operating table") as jobs:
+        table.jobs = jobs
+        # Every cell's searches at once, each in a thread: their jobs keep both workers busy.
+        cells = [(base, product) for base in args.baseline for product in products]
+        found = jobs.each(lambda cell: table.cell(*cell), cells)
+        assessments = len(jobs.futures)
+    rows = []
+    for (base, product), (values, details) in zip(cells, found):
         rows.append(
             {
                 "product": product.name,
@@ -252,7 +254,7 @@ def main(argv=None):
             f"{r['product']:<11} {r['baseline [% of rated]']:>3g} %: "
             + ", ".join(f"{c} {100 * r[f'{c} [W]'] / table.rated:.2f} %" for c in COLUMNS),
         )
-    cli.say(args, f"{len(rows)} cells, {len(table.done)} assessments in {elapsed:.0f} s; the table in {args.out}")
+    cli.say(args, f"{len(rows)} cells, {assessments} assessments in {elapsed:.0f} s; the table in {args.out}")
     return 0
 
 

@@ -51,7 +51,7 @@ from aem_electrolyser.reserves.prequalify import (
     module_curve,
     modules_count,
     percent,
-    run_jobs,
+    Jobs,
     time_constants,
 )
 
@@ -126,8 +126,8 @@ class Portfolio:
     """Capacities (each hub × product assessed once, through aem-prequalify's pool), steady
     states and values of the configurations tried."""
 
-    def __init__(self, args):
-        self.args, self.done, self.steady_states = args, {}, {}
+    def __init__(self, args, jobs=None):
+        self.args, self.jobs, self.steady_states = args, jobs, {}
         self.curve = module_curve(args)
         from fmpy import read_model_description
 
@@ -159,13 +159,10 @@ class Portfolio:
 
     def configurations(self, named):
         """[Configuration] of (name, hub, count, zero) tuples, their jobs run together."""
-        keys = [(hub, p) for _, hub, _, _ in named for p in self.products]
-        todo = [k for k in dict.fromkeys(keys) if k not in self.done]
-        if todo:
-            self.done.update(run_jobs(self.args, todo))
+        done = self.jobs.run([(hub, p) for _, hub, _, _ in named for p in self.products])
         out = []
         for name, hub, count, zero in named:
-            capacities = {p: self.done[(hub, p)][0].sellable for p in self.products}
+            capacities = {p: done[(hub, p)][0].sellable for p in self.products}
             power, hydrogen = self.steady(hub)
             value = self.value(capacities, hydrogen)
             out.append(Configuration(name, hub, count, hub.initial_standby, zero, capacities, power, hydrogen, value))
@@ -296,9 +293,14 @@ def main(argv=None):
     if low:
         p.error(f"--baseline: {100 * low[0]:g} % is below one module at minSetpoint")
     start = time.perf_counter()
-    rows = []
-    for base in cli.progress(args.baseline, desc="portfolio", unit="baseline", quiet=args.quiet):
-        rows += rows_of(portfolio, base, portfolio.best(base))
+    with Jobs(args, desc="portfolio") as jobs:
+        portfolio.jobs = jobs
+        # Every baseline's search at once, each in a thread: their jobs keep every worker busy.
+        found = jobs.each(portfolio.best, list(args.baseline))
+        assessments = len(jobs.futures)
+    rows = [
+        row for base, configurations in zip(args.baseline, found) for row in rows_of(portfolio, base, configurations)
+    ]
     elapsed = time.perf_counter() - start
     write(args.out, rows, portfolio, elapsed)
     for r in rows:
@@ -310,7 +312,7 @@ def main(argv=None):
             + ", ".join(f"{p} {100 * r[f'{p} [W]'] / portfolio.rated:.2f} %" for p in portfolio.products)
             + f", {r['hydrogen [kg/h]']:.4g} kg/h, {r['value [EUR/h]']:.4g} €/h",
         )
-    cli.say(args, f"{len(portfolio.done)} assessments in {elapsed:.0f} s; the tables in {args.out}")
+    cli.say(args, f"{assessments} assessments in {elapsed:.0f} s; the tables in {args.out}")
     return 0
 
 

@@ -63,8 +63,9 @@ import os
 import queue
 import re
 import textwrap
+import threading
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, FIRST_EXCEPTION, ProcessPoolExecutor, ThreadPoolExecutor, wait
 from pathlib import Path
 
 from aem_electrolyser import cli
@@ -454,31 +455,68 @@ def module_curve(args):
     return dispatch_search.ModuleCurve(*(value[n] for n in names))
 
 
-def run_jobs(args, keys):
-    """{(hub, product name): job(...)} with a progress bar over the jobs (the latest bisection
-    step in its postfix); the first failure cancels what has not started and is raised."""
-    context = multiprocessing.get_context()
-    steps = context.Queue() if cli.shows_progress(args.quiet) else None
-    done = {}
-    with (
-        cli.progress(total=len(keys), desc="prequalification", unit="job", quiet=args.quiet) as bar,
-        ProcessPoolExecutor(
-            max_workers=args.jobs, mp_context=context, initializer=_start_worker, initargs=(steps,)
-        ) as pool,
-    ):
-        futures = {pool.submit(job, args.fmu, hub, name, args.dt): (hub, name) for hub, name in keys}
-        pending = set(futures)
-        try:
-            while pending:
-                finished, pending = wait(pending, timeout=0.25, return_when=FIRST_COMPLETED)
-                _show_steps(steps, bar)
-                for future in finished:
-                    done[futures[future]] = future.result()
-                    bar.update(1)
-        except BaseException:
-            pool.shutdown(wait=False, cancel_futures=True)
-            raise
-    return done
+class Jobs:
+    """One pool of worker processes for a whole command. Searches that run side by side (each in
+    a thread of the parent, see `each`) ask for their jobs with `run`: the jobs queue in the
+    order asked, each (hub, product) once, and a worker never waits for a search to decide its
+    next step while another search has work. A progress bar over the jobs asked so far (the
+    latest bisection step in its postfix); the first failure cancels what has not started and
+    is raised in every search that waits for it."""
+
+    def __init__(self, args, desc="prequalification"):
+        self.args, self.desc = args, desc
+        self.futures = {}  # (hub, product name) -> Future
+        self.lock = threading.Lock()
+
+    def __enter__(self):
+        context = multiprocessing.get_context()
+        self.steps = context.Queue() if cli.shows_progress(self.args.quiet) else None
+        self.bar = cli.progress(total=0, desc=self.desc, unit="job", quiet=self.args.quiet)
+        self.pool = ProcessPoolExecutor(
+            max_workers=self.args.jobs, mp_context=context, initializer=_start_worker, initargs=(self.steps,)
+        )
+        return self
+
+    def __exit__(self, kind, error, trace):
+        self.pool.shutdown(wait=kind is None, cancel_futures=kind is not None)
+        self.bar.close()
+        return False
+
+    def run(self, keys):
+        """{key: job(...)} of every (hub, product name) in `keys`, those not asked before submitted
+        now; blocks until all of them are done."""
+        with self.lock:
+            for key in dict.fromkeys(keys):
+                if key not in self.futures:
+                    hub, name = key
+                    future = self.pool.submit(job, self.args.fmu, hub, name, self.args.dt)
+                    future.add_done_callback(lambda _: self.bar.update(1))
+                    self.futures[key] = future
+            self.bar.total += len(self.futures) - self.bar.total
+            self.bar.refresh()
+            mine = {key: self.futures[key] for key in keys}
+        pending = set(mine.values())
+        while pending:
+            finished, pending = wait(pending, timeout=0.25, return_when=FIRST_COMPLETED)
+            _show_steps(self.steps, self.bar)
+            for future in finished:
+                future.result()  # the first failure, raised here
+        return {key: future.result() for key, future in mine.items()}
+
+    def each(self, work, items):
+        """[work(item) for item in items], each in a thread of its own, all at once (their jobs
+        share the pool). The first failure cancels the jobs not started (the other threads end
+        on them) and is raised."""
+        if len(items) <= 1:
+            return [work(item) for item in items]
+        with ThreadPoolExecutor(max_workers=len(items)) as threads:
+            futures = [threads.submit(work, item) for item in items]
+            finished, _ = wait(futures, return_when=FIRST_EXCEPTION)
+            failed = [f for f in futures if f in finished and f.exception() is not None]
+            if failed:
+                self.pool.shutdown(wait=False, cancel_futures=True)
+                raise failed[0].exception()
+            return [f.result() for f in futures]
 
 
 def _show_steps(steps, bar):
@@ -519,25 +557,25 @@ def control_hub(args, d, base, zero, taus):
     return Hub(args.modules, policy, BELOW_MINIMUM[policy], base, False, args.settings, zero)
 
 
-def optimise_controls(args, products, done, taus):
+def optimise_controls(args, products, jobs, taus):
     """{(dispatch, baseline, product name): (optimise.Search, the best hub)} over the reserve
-    control's zero in [τp1, τp2]; every job run lands in `done`."""
+    control's zero in [τp1, τp2], every search at once on `jobs` (a Jobs)."""
     tau_zero, t1, t2 = taus
-    found = {}
-    for d in args.dispatch:
-        for base in args.baseline:
-            for product in products:
+    cases = [(d, base, product) for d in args.dispatch for base in args.baseline for product in products]
 
-                def capacities(zs, d=d, base=base, product=product):
-                    keys = [(control_hub(args, d, base, z, taus), product.name) for z in zs]
-                    todo = [k for k in keys if k not in done]
-                    if todo:
-                        done.update(run_jobs(args, todo))
-                    return [done[k][0].sellable for k in keys]
+    def optimise_one(case):
+        d, base, product = case
 
-                search = optimise.search(capacities, min(t1, t2), max(t1, t2), known=(tau_zero, t2))
-                found[(d, base, product.name)] = (search, control_hub(args, d, base, search.best.zero, taus))
-    return found
+        def capacities(zs):
+            keys = [(control_hub(args, d, base, z, taus), product.name) for z in zs]
+            done = jobs.run(keys)
+            return [done[k][0].sellable for k in keys]
+
+        search = optimise.search(capacities, min(t1, t2), max(t1, t2), known=(tau_zero, t2))
+        return search, control_hub(args, d, base, search.best.zero, taus)
+
+    found = jobs.each(optimise_one, cases)
+    return {(d, base, product.name): f for (d, base, product), f in zip(cases, found)}
 
 
 def write_optimum(args, optimum, done, rated):
@@ -632,25 +670,26 @@ def count_hub(args, base, count, curve):
     return Hub(args.modules, 4, BELOW_MINIMUM[4], base, False, args.settings, dispatch_target=target)
 
 
-def optimise_dispatch(args, products, done):
+def optimise_dispatch(args, products, jobs):
     """{(baseline, product name): (dispatch_search.Found, feasible counts)}: per product and
-    baseline the running count that sells the most; every job run lands in `done`."""
+    baseline the running count that sells the most, every search at once on `jobs` (a Jobs)."""
     curve = module_curve(args)
     rated = args.modules * curve.power(curve.max_setpoint)
-    found = {}
-    for base in args.baseline:
+    cases = [(base, product) for base in args.baseline for product in products]
+
+    def optimise_one(case):
+        base, product = case
         counts = dispatch_search.feasible_counts(args.modules, base * rated, curve)
-        for product in products:
 
-            def capacities(ns, base=base, product=product):
-                keys = [(count_hub(args, base, n, curve), product.name) for n in ns]
-                todo = [k for k in keys if k not in done]
-                if todo:
-                    done.update(run_jobs(args, todo))
-                return [done[k][0].sellable for k in keys]
+        def capacities(ns):
+            keys = [(count_hub(args, base, n, curve), product.name) for n in ns]
+            done = jobs.run(keys)
+            return [done[k][0].sellable for k in keys]
 
-            found[(base, product.name)] = (dispatch_search.search(capacities, counts), counts)
-    return found
+        return dispatch_search.search(capacities, counts), counts
+
+    found = jobs.each(optimise_one, cases)
+    return {(base, product.name): f for (base, product), f in zip(cases, found)}
 
 
 def write_dispatch_optimum(args, dispatched, rated):
@@ -734,9 +773,11 @@ def main(argv=None):
         for z in args.filter_zero
     ]
     start = time.perf_counter()
-    done = run_jobs(args, [(hub, p_.name) for hub in hubs for p_ in products])
-    optimum = optimise_controls(args, products, done, taus) if args.optimise else None
-    dispatched = optimise_dispatch(args, products, done) if args.optimise_dispatch else None
+    with Jobs(args) as jobs:
+        jobs.run([(hub, p_.name) for hub in hubs for p_ in products])
+        optimum = optimise_controls(args, products, jobs, taus) if args.optimise else None
+        dispatched = optimise_dispatch(args, products, jobs) if args.optimise_dispatch else None
+        done = {key: future.result() for key, future in jobs.futures.items()}
     elapsed = time.perf_counter() - start
     rated = next(iter(done.values()))[3]
     figures = {}

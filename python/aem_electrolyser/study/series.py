@@ -14,7 +14,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from .quantities import WATTS, power
 from aem_electrolyser.wind.year import FARM_RATING, WindClimate, farm_power_year
@@ -89,6 +88,8 @@ class SeriesFile:
 
 def read_series(path, time_column, value_column):
     """(times [s] from the first sample, values in SI, "power" or "setpoint") of a file."""
+    import pandas as pd  # here: 2 s of import that a refused command line need not wait for
+
     path = Path(path)
     if path.suffix.lower() == ".parquet":
         frame = pd.read_parquet(path, columns=[time_column, value_column])

@@ -46,7 +46,6 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.special import gamma, log_ndtr
 
 from aem_electrolyser import cli
 from aem_electrolyser.wind.farm import N_TURBINES, Site, Turbine, power_curve, rotor_effective, turbulent_speeds
@@ -71,6 +70,8 @@ class WindClimate:
     @property
     def weibull_scale(self):
         """c0 = V̄ / Γ(1 + 1/k) [m/s]."""
+        from scipy.special import gamma  # 1 s to import: not before a command's arguments are checked
+
         return self.mean_speed / gamma(1.0 + 1.0 / self.weibull_shape)
 
 
@@ -95,6 +96,7 @@ def hourly_mean_wind(hours, seed=1, climate=WindClimate()):
     eps = np.random.default_rng(_seeds(seed, 0)).standard_normal(int(hours))
     eps[1:] *= math.sqrt(1.0 - phi * phi)
     from scipy.signal import lfilter  # 2 s to import: not before the command's arguments are checked
+    from scipy.special import log_ndtr
 
     z = lfilter([1.0], [1.0, -phi], eps)
     t = (np.arange(int(hours)) + 0.5) * HOUR

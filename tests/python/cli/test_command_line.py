@@ -49,6 +49,7 @@ PROGRAMS = {
     "wind.year": module("wind.year"),
     "plot_validation": module("plot_validation"),
     "aem-prequalify": script("aem-prequalify"),
+    "operating_table": module("reserves.operating_table"),
     "aem-study": script("aem-study"),
     "aem-identify": script("aem-identify"),
     "aem-run": script("aem-run"),
@@ -465,6 +466,13 @@ FAILURES = [
         ],
         "does not match the model description",
         id="aem-prequalify:fmu-refuses-to-instantiate",
+    ),
+    pytest.param(
+        "operating_table",
+        # two cells: their searches run side by side, and the first failure ends both
+        ["--fmu", "{guid_fmu}", "--modules", "10", "--baseline", "80,90", "--products", "aFRR up", "--no-plots", *OUT],
+        "does not match the model description",
+        id="operating_table:fmu-refuses-to-instantiate",
     ),
     pytest.param(
         "validation_day",
