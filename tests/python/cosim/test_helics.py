@@ -582,14 +582,32 @@ def test_a_federate_that_never_comes_ends_the_federation(federation):
         assert "joined: wind, hub" in line or "joined: hub, wind" in line, line
 
 
-def test_the_wall_clock_limit_ends_the_federation(federation):
+SLOW_GRID = """import sys, time
+sys.argv[0] = "grid_federate.py"
+from aem_electrolyser.helics import grid_federate
+from aem_electrolyser.cli import quiet_on_closed_stdout
+solve = grid_federate.solve
+
+def slow(net, first):
+    time.sleep(0.2)  # a slow load flow: the federation runs, its processes mostly wait
+    solve(net, first)
+
+grid_federate.solve = slow
+quiet_on_closed_stdout(grid_federate.main)
+"""
+
+
+def test_the_wall_clock_limit_ends_the_federation(federation, tmp_path):
     """The hub's wall-clock limit, reached while the federation runs (an hour of simulated time
-    takes minutes), ends every process within BOUND. The limit counts from the hub's own start:
-    the test first sees every federate exchanging values, so that the limit does not fall while
-    a slow starter is still joining (a federate that joins an ended federation waits for
+    at 0.2 s a load flow), ends every process within BOUND. The limit counts from the hub's own
+    start: the test first sees every federate exchanging values, so that the limit does not fall
+    while a slow starter is still joining (a federate that joins an ended federation waits for
     HELICS's connection timeout, which is not what is tested here); 30 s leave room for the
-    others' start on a loaded machine."""
-    f = federation(duration=3600, hub=["--wall-limit=30"])
+    others' start on a loaded machine. The grid's load flows sleep, so the 30 s the test waits
+    leave the CPU to the other tests."""
+    program = tmp_path / "slow_grid.py"
+    program.write_text(SLOW_GRID)
+    f = federation(duration=3600, hub=["--wall-limit=30"], programs={"grid": program})
     for record in ("wind_published.csv", "hub_published.csv", "grid_published.csv"):
         f.wait_for_rows(record, 2, timeout=30)
     status = f.wait(30 + BOUND)
