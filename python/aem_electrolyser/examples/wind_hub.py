@@ -22,6 +22,8 @@ import numpy as np
 
 from aem_electrolyser.hub.dispatch import DISPATCHES, N_MODULES
 from aem_electrolyser.hub.driver import HubFMU
+from aem_electrolyser.hub.units import kg_per_nl
+from aem_electrolyser.locate import fmu_path as locate_fmu
 from aem_electrolyser.wind.farm import farm_power
 from aem_electrolyser.extras import require
 from aem_electrolyser import cli
@@ -36,7 +38,6 @@ OUTPUTS = [
     "modulesStandby",
     "starts",
 ]
-H2_DENSITY = 0.08988e-3  # kg per normal litre (0 °C, 1 atm)
 
 
 def module_rating(hub):
@@ -68,8 +69,9 @@ def simulate(fmu, reference, dt, dispatch, n_modules=N_MODULES, hub_factory=HubF
     return out, rating
 
 
-def summarise(reference, dt, out, n_modules, rating):
-    """Energies [J], hydrogen [kg] and tracking error [W] of one run."""
+def summarise(reference, dt, out, n_modules, rating, kg_per_nl):
+    """Energies [J], hydrogen [kg] (the FMU's Nl times `kg_per_nl`) and tracking error [W] of
+    one run."""
     wind_step = reference * dt  # the reference is held over each step
     hub_step = np.diff(out["hubEnergy"])  # the FMU's exact integral over each step
     grid_step = wind_step - hub_step
@@ -80,7 +82,7 @@ def summarise(reference, dt, out, n_modules, rating):
         grid=grid_step.sum(),
         exported=grid_step[grid_step > 0].sum(),
         imported=-grid_step[grid_step < 0].sum(),
-        h2_kg=(out["hubH2Produced"][-1] - out["hubH2Produced"][0]) * H2_DENSITY,
+        h2_kg=(out["hubH2Produced"][-1] - out["hubH2Produced"][0]) * kg_per_nl,
         rms=np.sqrt(np.mean(err**2)),
         nominal=n_modules * rating[1],
         starts=out["starts"][-1],
@@ -177,13 +179,14 @@ def run(
     t, wind, _ = farm_power(duration + dt, dt, seed=seed)
     reference = wind[:-1]
     runs, summaries = {}, {}
+    kg = kg_per_nl(locate_fmu(fmu))  # the FMU's own normal density of hydrogen
     with (
         contextlib.redirect_stdout(sys.stderr),
         cli.progress(total=len(dispatches) * len(reference) * dt, unit="s", desc="wind_hub", quiet=quiet) as bar,
     ):
         for d in dispatches:
             runs[d], rating = simulate(fmu, reference, dt, d, hub_factory=hub_factory, bar=bar)
-            summaries[d] = summarise(reference, dt, runs[d], N_MODULES, rating)
+            summaries[d] = summarise(reference, dt, runs[d], N_MODULES, rating, kg)
     if out is not None:
         out = Path(out) / "wind_hub"
         out.parent.mkdir(parents=True, exist_ok=True)
