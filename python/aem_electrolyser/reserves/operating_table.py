@@ -92,8 +92,7 @@ class Table:
         self.taus = time_constants(args)
 
     def capacities(self, hubs, product):
-        done = self.jobs.run([(h, product.name) for h in hubs])
-        return [done[(h, product.name)][0].sellable for h in hubs]
+        return self.jobs.capacities([(h, product.name) for h in hubs])
 
     def hub(self, dispatch, base, compensation=False, zero=0.0, count=None):
         a = self.args

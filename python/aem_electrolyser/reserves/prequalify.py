@@ -503,6 +503,12 @@ class Jobs:
                 future.result()  # the first failure, raised here
         return {key: future.result() for key, future in mine.items()}
 
+    def capacities(self, keys):
+        """The sellable capacity [W] of each (hub, product name) in `keys`, in their order (run
+        as `run` runs them)."""
+        done = self.run(keys)
+        return [done[key][0].sellable for key in keys]
+
     def each(self, work, items):
         """[work(item) for item in items], each in a thread of its own, all at once (their jobs
         share the pool). The first failure cancels the jobs not started (the other threads end
@@ -568,8 +574,7 @@ def optimise_controls(args, products, jobs, taus):
 
         def capacities(zs):
             keys = [(control_hub(args, d, base, z, taus), product.name) for z in zs]
-            done = jobs.run(keys)
-            return [done[k][0].sellable for k in keys]
+            return jobs.capacities(keys)
 
         search = optimise.search(capacities, min(t1, t2), max(t1, t2), known=(tau_zero, t2))
         return search, control_hub(args, d, base, search.best.zero, taus)
@@ -683,8 +688,7 @@ def optimise_dispatch(args, products, jobs):
 
         def capacities(ns):
             keys = [(count_hub(args, base, n, curve), product.name) for n in ns]
-            done = jobs.run(keys)
-            return [done[k][0].sellable for k in keys]
+            return jobs.capacities(keys)
 
         return dispatch_search.search(capacities, counts), counts
 
