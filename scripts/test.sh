@@ -41,20 +41,15 @@ nice -n 19 bash scripts/fuzz.sh build >target/fuzz-build.log 2>&1 &
 fuzz_build=$!
 trap 'kill $fuzz_build ${fuzz_run:-} 2>/dev/null || true' EXIT
 phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup -m "not serial" --durations=20
-# The serial test (the sdist's build in the checkout's target folder, on one core most of its
-# time) starts at once, beside the rest of the fuzzers' build and then their runs (their own
-# folder, one core).
-.venv/bin/python -m pytest tests/python -q -m serial >target/serial.log 2>&1 &
-serial=$!
-trap 'kill $fuzz_build $serial ${fuzz_run:-} 2>/dev/null || true' EXIT
 fuzz_built() { wait $fuzz_build || { cat target/fuzz-build.log >&2; return 1; }; }
 phase fuzz_built
 # 5 s a target here: every harness builds and finds nothing in reach; the long runs (release
 # build) are in docs/robustness.md (SECONDS_PER_TARGET=3600 or RUNS=10000000 bash scripts/fuzz.sh).
+# The fuzzers (their own folder, one core) run beside the serial test (the sdist's build in the
+# checkout's target folder), which leaves the other core idle most of its time.
 SECONDS_PER_TARGET="${SECONDS_PER_TARGET:-5}" bash scripts/fuzz.sh >target/fuzz-run.log 2>&1 &
 fuzz_run=$!
-serial_passed() { wait $serial && cat target/serial.log || { cat target/serial.log; return 1; }; }
-phase serial_passed
+phase .venv/bin/python -m pytest tests/python -q -m serial
 fuzz_ran() { wait $fuzz_run && cat target/fuzz-run.log >&2 || { cat target/fuzz-run.log >&2; return 1; }; }
 phase fuzz_ran
 echo "test.sh: every test passed in $SECONDS s" >&2
