@@ -1,5 +1,5 @@
-"""hatchling build hook: puts the FMU and the native commands into the wheel and tags it for
-their platform.
+"""hatchling build hook: puts the FMU, the native commands and the hub runner's native stepping
+loop (aem_drive) into the wheel and tags it for their platform.
 
 Why hatchling and not maturin: maturin ships the binaries of one crate built by one toolchain,
 while this wheel carries the two-platform FMU that packaging/package.py assembles (linux64 by
@@ -11,7 +11,7 @@ Two ways to build:
 
 - A release (packaging/release.py): AEM_WHEEL_PLATFORM=linux64 or win64 takes what the release
   built, target/fmu/AemElectrolyser.fmu (both binaries) and target/dist/<platform>/aem-identify,
-  aem-run (portable builds), and tags the wheel manylinux2014_x86_64 or win_amd64.
+  aem-run, aem_drive (portable builds), and tags the wheel manylinux2014_x86_64 or win_amd64.
 - From source (pip install of the sdist, or of the checkout without -e; Linux x86-64, Rust and
   libclang needed): builds the FMU's linux64 binary and the commands in one cargo build, with
   cargo-zigbuild against glibc 2.17 when it is installed (a manylinux2014 wheel), else with
@@ -32,6 +32,8 @@ from hatchling.builders.hooks.plugin.interface import BuildHookInterface
 
 MODEL = "AemElectrolyser"
 TOOLS = ("aem-identify", "aem-run")
+#: The native stepping loop of the package's hub runner (crates/drive), per platform.
+DRIVE = {"linux64": "libaem_drive.so", "win64": "aem_drive.dll"}
 RELEASE_TAGS = {"linux64": "py3-none-manylinux_2_17_x86_64.manylinux2014_x86_64", "win64": "py3-none-win_amd64"}
 EXE = {"linux64": "", "win64": ".exe"}
 
@@ -71,6 +73,7 @@ def _release_artefacts(target, platform):
     if shipped != set(RELEASE_TAGS):
         raise BuildError(f"{fmu} holds binaries for {sorted(shipped)}; a release wheel ships {sorted(RELEASE_TAGS)}")
     tools = [target / "dist" / platform / f"{tool}{EXE[platform]}" for tool in TOOLS]
+    tools.append(target / "dist" / platform / DRIVE[platform])
     for tool in tools:
         if not tool.is_file():
             raise BuildError(f"{tool} not found: packaging/release.py builds it")
@@ -124,4 +127,4 @@ def _build_from_source(root, target):
         if portable
         else "py3-none-" + sysconfig.get_platform().replace("-", "_").replace(".", "_")
     )
-    return fmu, [out / tool for tool in TOOLS], tag
+    return fmu, [out / tool for tool in TOOLS] + [out / DRIVE["linux64"]], tag

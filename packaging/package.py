@@ -64,8 +64,9 @@ def build_release(platforms, model_description=None, native=False):
     env = {"AEM_MODEL_DESCRIPTION": str(model_description) if model_description is not None else ""}
     # A release builds the whole workspace (packaging/platforms.py all): the same selection here
     # keeps the features of shared dependencies, so only this crate is compiled again. The
-    # native build (the demo) needs the library alone.
-    selection = ["--lib", "--package", CRATE] if native else ["--workspace"]
+    # native build (the demo) needs the libraries alone: the FMU's and the Python hub runner's
+    # stepping loop (aem_drive, which the prequalification in this checkout then finds).
+    selection = ["--lib", "--package", CRATE, "--package", "aem-drive"] if native else ["--workspace"]
     for name in platforms:
         build(platform(name, native), [*selection, "--locked"], env)
 

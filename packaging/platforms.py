@@ -17,7 +17,8 @@ identification tool and aem-study's native master for users of each platform:
            --release), reusing its crates
     .venv/bin/python packaging/platforms.py all [--platforms win64]
         -> the whole workspace in one build per platform (the FMU's library, which
-           packaging/package.py --no-build then zips, and both commands into target/dist/)
+           packaging/package.py --no-build then zips; both commands and the Python package's
+           stepping library, aem_drive, into target/dist/)
 
 Build times go to stderr; the output paths are checked for writing before anything is built.
 
@@ -60,6 +61,8 @@ PLATFORMS = {p.name: p for p in (LINUX64, WIN64)}
 #: linux64 built with plain `cargo build` against this machine's glibc: no zig, fast; for a build
 #: from source (the demo, a wheel built from the sdist), not for a release.
 HOST = Platform("linux64", "x86_64-unknown-linux-gnu", "lib", ".so", "")
+#: The native stepping loop the Python package's hub runner loads (crates/drive).
+DRIVE = "aem_drive"
 
 
 def platform(name, native=False):
@@ -200,12 +203,13 @@ def main(argv=None):
     tools = ["aem-identify", "aem-run"] if args.tool == "all" else [args.tool]
     if args.dest is not None and len(names) > 1:
         parser.error("--dest takes the commands of one platform")
-    outputs = {
-        name: [
-            writable((args.dest or TARGET / "dist" / name) / f"{tool}{PLATFORMS[name].exe_suffix}") for tool in tools
-        ]
-        for name in names
-    }
+
+    def files(name):
+        """The commands, and with all the Python package's stepping library (aem_drive)."""
+        found = [f"{tool}{PLATFORMS[name].exe_suffix}" for tool in tools]
+        return found + [PLATFORMS[name].library(DRIVE)] if args.tool == "all" else found
+
+    outputs = {name: [writable((args.dest or TARGET / "dist" / name) / file) for file in files(name)] for name in names}
 
     def build_one(name):
         if args.tool == "all":  # the library from the repository's model description (package.py checks its GUID)

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Benchmarks (printed figures): the Rust model and C ABI in process, then fmpy and the
 # Python/SciPy peer in the same run, and the NREL electrolyzer package as peer of the hub; last,
-# aem-study's year-long scenarios against the FMU's C interface and the NREL peer.
+# aem-study's year-long scenarios against the FMU's C interface and the NREL peer; the
+# prequalification's native steps against a plain fmpy master.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
@@ -18,6 +19,8 @@ echo "== the NREL electrolyzer package (PyPI) as peer, against the equal hub thr
 bash benches/nrel_bench.sh
 echo "== aem-identify against its Python/SciPy peer"
 bash benches/identify_bench.sh
+echo "== the prequalification's steps: the hub runner (aem_drive) against a plain fmpy master"
+.venv/bin/python benches/drive_bench.py
 echo "== prequalification of the 25 000-module hub: every product, plain and compensated, with bisection"
 .venv/bin/aem-prequalify --modules 25000 --dispatch equal --baseline 80 --compensation both \
   --no-plots --out target/bench/prequalification | tail -1

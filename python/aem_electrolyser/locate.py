@@ -1,7 +1,8 @@
 """Where the installed package finds its FMU and its native commands: the one place that knows.
 
 An installed wheel carries them inside the package (`data/AemElectrolyser.fmu`,
-`bin/aem-identify`, `bin/aem-run`); an editable install in a source checkout uses the build
+`bin/aem-identify`, `bin/aem-run`, and the hub runner's stepping loop `bin/libaem_drive.so` or
+`bin/aem_drive.dll`); an editable install in a source checkout uses the build
 tree (`target/fmu/`, `target/release/`, `target/dist/<platform>/`), which `bash scripts/demo.sh`
 or `bash scripts/test.sh` fill.
 """
@@ -65,22 +66,37 @@ def exe(name):
     return f"{name}.exe" if os.name == "nt" else name
 
 
+def library(name):
+    """`name` (a crate's library name) as this platform's shared library file."""
+    return f"{name}.dll" if os.name == "nt" else f"lib{name}.so"
+
+
 def binary(name):
     """The native command `name` (aem-identify or aem-run) of this installation: the wheel's, or
     in a checkout the newer of this machine's build (target/release/) and the portable one
     (target/dist/<platform>/, which scripts/test.sh builds)."""
-    bundled = PACKAGE / "bin" / exe(name)
+    return _native(exe(name), "cargo build --release --bins")
+
+
+def drive_library():
+    """The hub runner's native stepping loop (crates/drive, aem_drive), found as `binary` finds
+    the commands."""
+    return _native(library("aem_drive"), "cargo build --release -p aem-drive")
+
+
+def _native(file, build):
+    bundled = PACKAGE / "bin" / file
     if bundled.is_file():
         return bundled
     target = _target()
     if target is not None:
         own = "win64" if os.name == "nt" else "linux64"
-        built = [p for p in (target / "release" / exe(name), target / "dist" / own / exe(name)) if p.is_file()]
+        built = [p for p in (target / "release" / file, target / "dist" / own / file) if p.is_file()]
         if built:
             return max(built, key=lambda p: p.stat().st_mtime)
-        raise NotBuilt(f"{target / 'release' / exe(name)} not found: build it with cargo build --release --bins")
+        raise NotBuilt(f"{target / 'release' / file} not found: build it with {build}")
     raise NotBuilt(
-        f"this installation of aem-electrolyser has no {exe(name)} ({bundled}): "
+        f"this installation of aem-electrolyser has no {file} ({bundled}): "
         "install a platform wheel (pip install aem-electrolyser on Linux x86-64 or Windows x64)"
     )
 

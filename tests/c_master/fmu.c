@@ -131,8 +131,8 @@ char *fmu_file_uri(const char *absolute) {
     return uri;
 }
 
-/* The platform's loader, behind three calls. */
-static void *library_open(const char *path) {
+/* The platform's loader, behind three calls (fmu.h). */
+void *library_open(const char *path) {
 #ifdef _WIN32
     /* The DLL's own folder is searched for the libraries it imports (FMI 2.0, section 2.3). */
     HMODULE library = LoadLibraryExA(path, NULL, LOAD_WITH_ALTERED_SEARCH_PATH);
@@ -147,7 +147,7 @@ static void *library_open(const char *path) {
 
 /* The address of `name`, as a data pointer: ISO C has no conversion from it to a function
  * pointer, so the caller copies the bytes (POSIX and Windows guarantee the same size). */
-static void *library_symbol(void *library, const char *name) {
+void *library_symbol(void *library, const char *name) {
 #ifdef _WIN32
     FARPROC symbol = GetProcAddress((HMODULE)library, name);
     void *address;
@@ -158,7 +158,7 @@ static void *library_symbol(void *library, const char *name) {
 #endif
 }
 
-static int library_close(void *library) {
+int library_close(void *library) {
 #ifdef _WIN32
     if (FreeLibrary((HMODULE)library)) return 0;
     fprintf(stderr, "FreeLibrary: error %lu\n", (unsigned long)GetLastError());

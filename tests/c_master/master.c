@@ -1,14 +1,18 @@
 /* A small FMI 2.0 co-simulation master in C11, the third independent importer of the FMU.
  *
  *   master --fmu-dir DIR --schedule CSV --step H --stop T --out CSV
- *          [--modules N --parameter-file PATH-OR-URI] [--resource-uri URI]
+ *          [--modules N --parameter-file PATH-OR-URI] [--resource-uri URI] [--drive LIBRARY]
  *       Runs a setpoint schedule (rows "time,setpoint": the setpoint holds from that time on;
  *       the first row's time is the start time) with fixed communication steps H up to T
  *       and writes time,current,voltage,power,h2Flow,energy,h2Produced after initialisation
  *       and after every step, each value with %.17g (it reads back to the same double).
  *       --modules and --parameter-file make it a hub of N modules with the given
  *       moduleParameterFile; --resource-uri replaces the fmuResourceLocation that the
- *       master derives from DIR (to try the forms a master may pass).
+ *       master derives from DIR (to try the forms a master may pass). --drive steps through
+ *       the schedule with aem_drive_series of LIBRARY (the Python package's native stepping
+ *       loop, crates/drive) instead of this master's own loop: the same rows, read after
+ *       setting each point's setpoint instead of before (the outputs are states: no
+ *       direct feedthrough), with steps t[k+1] - t[k].
  *
  *   master --fmu-dir DIR --bad-calls table
  *       Prints the bad-input table of docs/robustness.md as this library answers it (bad_calls.c).
@@ -157,8 +161,44 @@ static void write_row(FILE *out, double t, const double values[N_OUTPUTS]) {
     fputc('\n', out);
 }
 
+/* aem_drive_series (crates/drive): the FMU's entry points it calls, and its signature. */
+typedef struct {
+    fmi2SetRealTYPE *set_real;
+    fmi2GetRealTYPE *get_real;
+    fmi2DoStepTYPE *do_step;
+} DriveEntries;
+typedef fmi2Status DriveSeries(const DriveEntries *entries, fmi2Component c, size_t n, const double *t,
+                               fmi2ValueReference input_vr, const double *input, size_t n_outputs,
+                               const fmi2ValueReference *output_vrs, double *outputs, size_t *failed_at);
+
+/* The n points start + k*h of the schedule stepped by aem_drive_series of `library`, one row each. */
+static void drive_schedule(fmi2Component c, const Schedule *s, double start, double h, size_t n,
+                           const char *library, FILE *out) {
+    void *drive = library_open(library);
+    if (!drive) die("cannot load the --drive library");
+    void *address = library_symbol(drive, "aem_drive_series");
+    if (!address) die("the --drive library has no aem_drive_series");
+    DriveSeries *drive_series;
+    memcpy(&drive_series, &address, sizeof drive_series);
+    double *t = malloc(n * sizeof *t), *u = malloc(n * sizeof *u), *rows = malloc(n * N_OUTPUTS * sizeof *rows);
+    if (!t || !u || !rows) die("out of memory");
+    for (size_t k = 0; k < n; k++) {
+        t[k] = start + (double)k * h;
+        u[k] = setpoint_at(s, t[k]);
+    }
+    const DriveEntries entries = {fmu.SetReal, fmu.GetReal, fmu.DoStep};
+    size_t failed_at = n;
+    const fmi2Status status = drive_series(&entries, c, n, t, setpoint_vr, u, N_OUTPUTS, output_vrs, rows, &failed_at);
+    check(status, ALLOW(fmi2OK) | ALLOW(fmi2Warning), "aem_drive_series");
+    for (size_t k = 0; k < n; k++) write_row(out, t[k], rows + k * N_OUTPUTS);
+    free(t);
+    free(u);
+    free(rows);
+    if (library_close(drive) != 0) die("cannot unload the --drive library");
+}
+
 static void run_schedule(const char *schedule_path, double h, double stop, const char *out_path,
-                         fmi2Integer modules, const char *parameter_file) {
+                         fmi2Integer modules, const char *parameter_file, const char *drive_path) {
     Schedule s = read_schedule(schedule_path);
     const double start = s.time[0];
     if (!(h > 0) || !(stop > start)) die("need --step > 0 and --stop after the first schedule time");
@@ -181,16 +221,20 @@ static void run_schedule(const char *schedule_path, double h, double stop, const
     FILE *out = fopen(out_path, "w");
     if (!out) die("cannot write the output file");
     fputs("time,current,voltage,power,h2Flow,energy,h2Produced\n", out);
-    double values[N_OUTPUTS];
-    get_outputs(c, values);
-    write_row(out, start, values);
-    /* Communication points are start + n*h, computed afresh each step (no running sum). */
-    for (double n = 0; n < n_steps; n++) {
-        const double t = start + n * h;
-        set_setpoint(c, setpoint_at(&s, t));
-        OK(fmu.DoStep(c, t, h, fmi2True));
+    if (drive_path) {
+        drive_schedule(c, &s, start, h, (size_t)n_steps + 1, drive_path, out);
+    } else {
+        double values[N_OUTPUTS];
         get_outputs(c, values);
-        write_row(out, start + (n + 1) * h, values);
+        write_row(out, start, values);
+        /* Communication points are start + n*h, computed afresh each step (no running sum). */
+        for (double n = 0; n < n_steps; n++) {
+            const double t = start + n * h;
+            set_setpoint(c, setpoint_at(&s, t));
+            OK(fmu.DoStep(c, t, h, fmi2True));
+            get_outputs(c, values);
+            write_row(out, start + (n + 1) * h, values);
+        }
     }
     if (fclose(out) != 0) die("cannot write the output file");
 
@@ -319,6 +363,7 @@ int main(int argc, char **argv) {
     if (!dir || (!cycles && !schedule && !bad_calls) || argc % 2 != 1) {
         fprintf(stderr, "usage: master --fmu-dir DIR --schedule CSV --step H --stop T --out CSV\n"
                         "              [--modules N --parameter-file PATH-OR-URI] [--resource-uri URI]\n"
+                        "              [--drive LIBRARY]\n"
                         "       master --fmu-dir DIR --bad-calls table\n"
                         "       master --fmu-dir DIR --cycles N [--inject leak|invalid-read]\n");
         return 2;
@@ -351,7 +396,7 @@ int main(int argc, char **argv) {
         run_schedule(schedule, number(option(argc, argv, "--step"), "--step"),
                      number(option(argc, argv, "--stop"), "--stop"), out,
                      modules ? (fmi2Integer)number(modules, "--modules") : 0,
-                     option(argc, argv, "--parameter-file"));
+                     option(argc, argv, "--parameter-file"), option(argc, argv, "--drive"));
     }
     return fmu_unload(&fmu) == 0 ? 0 : 1;
 }

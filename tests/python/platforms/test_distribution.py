@@ -212,12 +212,13 @@ def test_the_windows_wheel_holds_the_windows_commands_and_both_binaries(wine, tm
     for name in (
         "aem_electrolyser/bin/aem-identify.exe",
         "aem_electrolyser/bin/aem-run.exe",
+        "aem_electrolyser/bin/aem_drive.dll",
         "aem_electrolyser/data/AemElectrolyser.fmu",
         "aem_electrolyser/__init__.py",
         "aem_electrolyser/locate.py",
     ):
         assert name in names, name
-    assert not any(n.startswith("aem_electrolyser/bin/") and not n.endswith(".exe") for n in names)
+    assert not any(n.startswith("aem_electrolyser/bin/") and not n.endswith((".exe", ".dll")) for n in names)
     with zipfile.ZipFile(wheel) as z:
         z.extract("aem_electrolyser/bin/aem-identify.exe", tmp_path)
         fmu = tmp_path / "AemElectrolyser.fmu"
@@ -233,7 +234,11 @@ def test_the_windows_wheel_holds_the_windows_commands_and_both_binaries(wine, tm
 def test_the_linux_wheel_is_tagged_manylinux2014_and_holds_the_linux_commands():
     names, tags, metadata, _ = wheel_metadata(dist_file(f"aem_electrolyser-{VERSION}-{LINUX_TAG}.whl"))
     assert {"Tag: py3-none-manylinux_2_17_x86_64", "Tag: py3-none-manylinux2014_x86_64"} <= set(tags.splitlines())
-    assert {"aem_electrolyser/bin/aem-identify", "aem_electrolyser/bin/aem-run"} <= set(names)
+    assert {
+        "aem_electrolyser/bin/aem-identify",
+        "aem_electrolyser/bin/aem-run",
+        "aem_electrolyser/bin/libaem_drive.so",
+    } <= set(names)
     for extra in ("study", "reserves", "mosaik", "helics", "grid", "plots", "all"):
         assert f"Provides-Extra: {extra}" in metadata.splitlines(), extra
 
@@ -263,13 +268,17 @@ def test_the_sdist_builds_a_working_wheel_from_its_own_files(tmp_path):
     assert wheel.name == f"aem_electrolyser-{VERSION}-{LINUX_TAG}.whl"
     bin_dir, venv_env = fresh_venv(tmp_path / "venv", str(wheel))
     code = """
+import ctypes
 import aem_electrolyser, fmpy
+from aem_electrolyser.locate import drive_library
 
 r = fmpy.simulate_fmu(str(aem_electrolyser.fmu_path()), stop_time=2.0, start_values={"setpoint": 70.0}, output=["current"])
 print(r["current"][-1])
+print(drive_library().relative_to(aem_electrolyser.locate.PACKAGE), ctypes.CDLL(str(drive_library())).aem_drive_series)
 """
-    out = run([bin_dir / "python", "-c", code], cwd=tmp_path, env=venv_env).stdout
-    assert float(out) == pytest.approx(PAPER["gain"] * 70.0, rel=1e-12)
+    current, drive = run([bin_dir / "python", "-c", code], cwd=tmp_path, env=venv_env).stdout.splitlines()
+    assert float(current) == pytest.approx(PAPER["gain"] * 70.0, rel=1e-12)
+    assert drive.startswith("bin/libaem_drive.so <_FuncPtr"), drive  # the wheel's own stepping loop
     assert VERSION in run([bin_dir / "aem-identify", "--version"], cwd=tmp_path, env=venv_env).stdout
 
 

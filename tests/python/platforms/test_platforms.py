@@ -35,6 +35,9 @@ IDENTIFY_EXE = ROOT / "target" / "dist" / "win64" / "aem-identify.exe"
 IDENTIFY_LINUX = ROOT / "target" / "dist" / "linux64" / "aem-identify"
 RUN_EXE = ROOT / "target" / "dist" / "win64" / "aem-run.exe"
 RUN_LINUX64 = ROOT / "target" / "dist" / "linux64" / "aem-run"
+#: The Python package's native stepping loop (crates/drive), as the release builds it.
+DRIVE_DLL = ROOT / "target" / "dist" / "win64" / "aem_drive.dll"
+DRIVE_LINUX64 = ROOT / "target" / "dist" / "linux64" / "libaem_drive.so"
 #: DLLs every Windows 10 and later has; the FMU's DLL may import these and no others.
 SYSTEM_DLLS = {
     "kernel32.dll",
@@ -119,9 +122,9 @@ def assert_bit_identical(a, b, what):
 # ------------------------------------------------------------------------------ the binaries
 
 
-@pytest.mark.parametrize("binary", ["the FMU's library", "aem-run", "aem-identify"])
+@pytest.mark.parametrize("binary", ["the FMU's library", "aem-run", "aem-identify", "aem_drive"])
 def test_the_linux_binary_needs_glibc_2_17_at_most(fmu_dir, binary):
-    path = {"aem-run": RUN_LINUX64, "aem-identify": IDENTIFY_LINUX}.get(
+    path = {"aem-run": RUN_LINUX64, "aem-identify": IDENTIFY_LINUX, "aem_drive": DRIVE_LINUX64}.get(
         binary, fmu_dir / "binaries" / "linux64" / f"{MODEL}.so"
     )
     if not path.is_file():
@@ -161,6 +164,30 @@ def test_windows_and_linux_give_the_same_bits(masters, fmu_dir, wine, tmp_path):
     windows = read_values((tmp_path / "windows.csv").read_text().replace("\r\n", "\n"))
     assert linux.shape == (3001, 7)
     assert_bit_identical(windows, linux, "win64 vs linux64")
+
+
+def test_the_stepping_library_gives_the_masters_own_bits_on_both_platforms(masters, fmu_dir, wine, tmp_path):
+    """The C master through the schedule with its own loop, and with the Python package's native
+    loop (aem_drive_series) of each platform's release build: every value the same bits."""
+    for path in (DRIVE_LINUX64, DRIVE_DLL):
+        if not path.is_file():
+            pytest.fail(f"{path} not found: scripts/test.sh builds it (packaging/platforms.py all)")
+    args = ["--schedule", SCHEDULE, "--step", "0.5", "--stop", "1500"]
+    run([masters[0], "--fmu-dir", fmu_dir, *args, "--out", tmp_path / "own.csv"])
+    run([masters[0], "--fmu-dir", fmu_dir, *args, "--out", tmp_path / "linux.csv", "--drive", DRIVE_LINUX64])
+    wine(masters[1], "--fmu-dir", fmu_dir, *args, "--out", tmp_path / "windows.csv", "--drive", DRIVE_DLL)
+    own = read_values((tmp_path / "own.csv").read_text())
+    assert own.shape == (3001, 7)
+    assert_bit_identical(read_values((tmp_path / "linux.csv").read_text()), own, "aem_drive on linux64")
+    windows = read_values((tmp_path / "windows.csv").read_text().replace("\r\n", "\n"))
+    assert_bit_identical(windows, own, "aem_drive.dll under Wine")
+
+
+def test_the_stepping_dll_exports_its_loop_and_imports_only_system_dlls():
+    dump = run([require(MINGW_OBJDUMP), "-p", DRIVE_DLL])
+    assert re.findall(r"\]\s+(aem_\w+)", dump) == ["aem_drive_series"]
+    imports = {name.lower() for name in re.findall(r"DLL Name: (\S+)", dump)}
+    assert imports <= SYSTEM_DLLS, f"imports beyond Windows itself: {imports - SYSTEM_DLLS}"
 
 
 def test_memory_cycles_on_windows_log_what_they_log_on_linux(masters, fmu_dir, wine):
