@@ -15,6 +15,7 @@ import ctypes
 import functools
 import math
 import shutil
+import threading
 import weakref
 from dataclasses import dataclass
 
@@ -75,8 +76,11 @@ class HubRunner:
         self.md = read_model_description(str(self.fmu_path))
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.unzipdir = extract(str(self.fmu_path))
-        # Removed by close(), or when the runner is collected or the interpreter exits.
-        self._remove_unzipdir = weakref.finalize(self, shutil.rmtree, self.unzipdir, ignore_errors=True)
+        # The FMU's library as fmpy loads it, once per thread that runs (a fresh instance each
+        # run); its libraries unloaded and unzipdir removed by close(), or when the runner is
+        # collected or the interpreter exits.
+        self._slaves, self._loaded = threading.local(), []
+        self._release = weakref.finalize(self, _release, self._loaded, self.unzipdir)
         value = dict(hub.settings)
         names = ("gain", "voltageIntercept", "ohmicResistance", "maxSetpoint", "minSetpoint", "standbyPower")
         losses = ("supplyNoLoadLoss", "supplyLossVoltage", "supplyLossResistance", "auxiliaryPower")
@@ -110,7 +114,7 @@ class HubRunner:
             self.resting_power = self.steady([self.measured])[self.measured]
 
     def close(self):
-        self._remove_unzipdir()
+        self._release()
 
     def run(self, t, frequency=None, power_reference=None, parameters=None):
         """The power assessed (hubPower, or hubAcPower on the grid side) and reserveRequest [W]
@@ -134,14 +138,24 @@ class HubRunner:
 
         return self._with_instance(read)
 
+    def _slave(self):
+        """This thread's fmpy FMU2Slave: the library loaded and its functions bound once."""
+        fmu = getattr(self._slaves, "fmu", None)
+        if fmu is None:
+            fmu = FMU2Slave(
+                guid=self.md.guid,
+                unzipDirectory=self.unzipdir,
+                modelIdentifier=self.md.coSimulation.modelIdentifier,
+                instanceName="prequalification",
+            )
+            self._slaves.fmu = fmu
+            self._loaded.append(fmu)
+        return fmu
+
     def _with_instance(self, work):
-        """`work(fmu)` on a fresh instance, freed afterwards; the FMU's refusals in its words."""
-        fmu = FMU2Slave(
-            guid=self.md.guid,
-            unzipDirectory=self.unzipdir,
-            modelIdentifier=self.md.coSimulation.modelIdentifier,
-            instanceName="prequalification",
-        )
+        """`work(fmu)` on a fresh instance, freed afterwards (the library stays loaded for the
+        next); the FMU's refusals in its words."""
+        fmu = self._slave()
         instantiate(fmu)
         try:
             with fmu_words(f"the hub ({self.hub.describe()})"):
@@ -151,7 +165,8 @@ class HubRunner:
                 fmu.terminate()
             except FMICallException:
                 pass  # an instance in error ends with freeInstance alone; the first refusal was raised
-            fmu.freeInstance()
+            fmu.fmi2FreeInstance(fmu.component)
+            fmu.component = None
 
     def _initialise(self, fmu, t0, frequency, power_reference, parameters):
         fmu.setupExperiment(startTime=float(t0))
@@ -220,6 +235,13 @@ class HubRunner:
         if not all(math.isfinite(x) for x in (power[-1], request[-1])):
             raise RuntimeError("the FMU returned a non-finite power")
         return power, request
+
+
+def _release(loaded, unzipdir):
+    """Unloads the FMU's library of every FMU2Slave in `loaded`, then removes `unzipdir`."""
+    while loaded:
+        loaded.pop().freeLibrary()
+    shutil.rmtree(unzipdir, ignore_errors=True)
 
 
 class _Entries(ctypes.Structure):
