@@ -2,7 +2,8 @@
 small hub selling upward and downward FCR-D at half its rated power. The hydrogen of every
 configuration follows Faraday's law at the current that draws the running modules' share of the
 power reference, its value follows the prices, the best configuration earns at least what the
-references earn, and assessed again from scratch it sells what the table says."""
+references earn and at least the best of a brute-force search over the joint space, and assessed
+again from scratch it sells what the table says."""
 
 import csv
 import json
@@ -11,7 +12,9 @@ import math
 import pytest
 
 from aem_electrolyser.hub.runner import Hub, HubRunner
-from aem_electrolyser.reserves import assess
+from aem_electrolyser.reserves import assess, dispatch_search, optimise
+from aem_electrolyser.reserves import portfolio as portfolio_command
+from aem_electrolyser.reserves.prequalify import Jobs
 from aem_electrolyser.reserves.products import BY_NAME
 from commands import run
 from conftest import PAPER, module_power
@@ -107,6 +110,38 @@ def test_the_best_configuration_sells_what_the_table_says_when_assessed_anew(fmu
             assert result.sellable == pytest.approx(best[f"{product} [W]"], rel=1e-12), product
     finally:
         runner.close()
+
+
+def test_the_search_earns_at_least_every_count_warm_count_and_grid_zero_tried_one_by_one(fmu_path):
+    """Brute force over the joint space at 35 % (where modules can wait warm beside the running
+    ones): every feasible running count, every number of warm modules from none to the most the
+    base power allows, every zero of the control search's grid. The one round of coordinate
+    search must earn at least the best of them (it may earn more: its zero is refined between
+    grid points)."""
+    parser = portfolio_command.parser()
+    args = parser.parse_args(
+        ["--modules", str(N), "--baseline", "35", "--dt", str(DT), "--hydrogen-value", str(HYDROGEN_VALUE), "--quiet"]
+        + ["--prices", ",".join(f"{p}={v}" for p, v in PRICES.items())]
+    )
+    args.fmu, args.settings, base = fmu_path, (), 0.35
+    found = portfolio_command.Portfolio(args)
+    with Jobs(args, desc="brute force") as jobs:
+        found.jobs = jobs
+        best = found.best(base)[0]
+        tau_zero, tau_1, tau_2 = found.taus
+        zeros = optimise.grid(min(tau_1, tau_2), max(tau_1, tau_2), known=(tau_zero,))
+        counts = dispatch_search.feasible_counts(N, base * found.rated, found.curve)
+        every = found.configurations(
+            [
+                ("", found.hub(base, n, z, k), n, z)
+                for n in counts
+                for k in range(found.most_warm(base, n) + 1)
+                for z in zeros
+            ]
+        )
+    assert len(counts) >= 3 and max(c.standby for c in every) >= 3  # a joint space, not a line
+    top = max(every, key=lambda c: c.value)
+    assert best.value >= top.value, (best, top)
 
 
 @pytest.mark.parametrize(
