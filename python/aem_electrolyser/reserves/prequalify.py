@@ -172,6 +172,11 @@ def verdict(figures: report.Capacity, result, run) -> tuple:
     return f"{head} {where}\nLimiting requirement: {figures.detail}", result.capacity <= 0
 
 
+def plot_job(folder: Path, stem: str, product_name: str, figures, result, run, title) -> list:
+    """plot_product in a worker process (the product by its name: its tests are functions)."""
+    return plot_product(folder, stem, BY_NAME[product_name], figures, result, run, title)
+
+
 def plot_product(folder: Path, stem: str, product, figures, result, run, title) -> list:
     """Every test of `product` in `run` (and the Nyquist plot of its sine tests, if they ran),
     each with the verdict; returns the file names."""
@@ -782,24 +787,29 @@ def main(argv=None):
         optimum = optimise_controls(args, products, jobs, taus) if args.optimise else None
         dispatched = optimise_dispatch(args, products, jobs) if args.optimise_dispatch else None
         done = {key: future.result() for key, future in jobs.futures.items()}
-    elapsed = time.perf_counter() - start
-    rated = next(iter(done.values()))[3]
-    figures = {}
+        elapsed = time.perf_counter() - start
+        rated = next(iter(done.values()))[3]
+        figures, sections, plots = {}, {}, {}
+        for hub in hubs:
+            for product in products:
+                result, at, above, _ = done[(hub, product.name)]
+                section = sections[(hub, product.name)] = assess.section(product, result, at, above)
+                c = figures[(hub, product.name)] = report.capacity(section, rated)
+                run = assess.shown(result, at, above)
+                if not args.no_plots and run is not None:  # drawn by the workers, side by side
+                    title = f"{product.name}, {hub_label(hub)}"
+                    plots[(hub, product.name)] = jobs.pool.submit(
+                        plot_job, args.out, hub_name(hub), product.name, c, result, run, title
+                    )
+        for key, future in plots.items():
+            sections[key].plots = future.result()
     for hub in hubs:
-        stem = hub_name(hub)
-        sections = []
-        for product in products:
-            result, at, above, _ = done[(hub, product.name)]
-            section = assess.section(product, result, at, above)
-            c = figures[(hub, product.name)] = report.capacity(section, rated)
-            run = assess.shown(result, at, above)
-            if not args.no_plots and run is not None:
-                section.plots = plot_product(
-                    args.out, stem, product, c, result, run, f"{product.name}, {hub_label(hub)}"
-                )
-            sections.append(section)
         report.write_report(
-            args.out, stem, sections, f"Reserve prequalification (model-based): {hub.describe()}", rated
+            args.out,
+            hub_name(hub),
+            [sections[(hub, product.name)] for product in products],
+            f"Reserve prequalification (model-based): {hub.describe()}",
+            rated,
         )
     rows = write_summary(args.out, hubs, products, figures, rated)
     if optimum is not None:
