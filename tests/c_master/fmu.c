@@ -132,7 +132,7 @@ char *fmu_file_uri(const char *absolute) {
 }
 
 /* The platform's loader, behind three calls (fmu.h). */
-void *library_open(const char *path) {
+void *fmu_library_open(const char *path) {
 #ifdef _WIN32
     /* The DLL's own folder is searched for the libraries it imports (FMI 2.0, section 2.3). */
     HMODULE library = LoadLibraryExA(path, NULL, LOAD_WITH_ALTERED_SEARCH_PATH);
@@ -147,7 +147,7 @@ void *library_open(const char *path) {
 
 /* The address of `name`, as a data pointer: ISO C has no conversion from it to a function
  * pointer, so the caller copies the bytes (POSIX and Windows guarantee the same size). */
-void *library_symbol(void *library, const char *name) {
+void *fmu_library_symbol(void *library, const char *name) {
 #ifdef _WIN32
     FARPROC symbol = GetProcAddress((HMODULE)library, name);
     void *address;
@@ -158,7 +158,7 @@ void *library_symbol(void *library, const char *name) {
 #endif
 }
 
-int library_close(void *library) {
+int fmu_library_close(void *library) {
 #ifdef _WIN32
     if (FreeLibrary((HMODULE)library)) return 0;
     fprintf(stderr, "FreeLibrary: error %lu\n", (unsigned long)GetLastError());
@@ -207,14 +207,14 @@ int fmu_load(Fmu *fmu, const char *dir) {
         free(library);
         return -1;
     }
-    fmu->library = library_open(library);
+    fmu->library = fmu_library_open(library);
     free(library);
     if (!fmu->library) return -1;
 
     int missing = 0;
 #define FMI2_RESOLVE(name)                                                                 \
     {                                                                                      \
-        void *symbol = library_symbol(fmu->library, "fmi2" #name);                         \
+        void *symbol = fmu_library_symbol(fmu->library, "fmi2" #name);                     \
         if (!symbol) {                                                                     \
             fprintf(stderr, "the library does not export fmi2" #name "\n");                \
             missing++;                                                                     \
@@ -228,7 +228,7 @@ int fmu_load(Fmu *fmu, const char *dir) {
 
 int fmu_unload(Fmu *fmu) {
     int rc = 0;
-    if (fmu->library && library_close(fmu->library) != 0) rc = -1;
+    if (fmu->library && fmu_library_close(fmu->library) != 0) rc = -1;
     free(fmu->guid);
     free(fmu->model_identifier);
     free(fmu->resource_uri);

@@ -49,9 +49,9 @@ int fmu_load(Fmu *fmu, const char *dir);
 /* The platform's loader (dlopen/dlsym/dlclose, or LoadLibrary/GetProcAddress/FreeLibrary):
  * a library by path (NULL after printing why), the address of one of its symbols as a data
  * pointer (NULL if absent; copy its bytes into a function pointer), and closing it (0 or -1). */
-void *library_open(const char *path);
-void *library_symbol(void *library, const char *name);
-int library_close(void *library);
+void *fmu_library_open(const char *path);
+void *fmu_library_symbol(void *library, const char *name);
+int fmu_library_close(void *library);
 
 /* Unloads the library and frees what fmu_load allocated. Returns 0, or -1 if dlclose fails. */
 int fmu_unload(Fmu *fmu);

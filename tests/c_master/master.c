@@ -174,9 +174,9 @@ typedef fmi2Status DriveSeries(const DriveEntries *entries, fmi2Component c, siz
 /* The n points start + k*h of the schedule stepped by aem_drive_series of `library`, one row each. */
 static void drive_schedule(fmi2Component c, const Schedule *s, double start, double h, size_t n,
                            const char *library, FILE *out) {
-    void *drive = library_open(library);
+    void *drive = fmu_library_open(library);
     if (!drive) die("cannot load the --drive library");
-    void *address = library_symbol(drive, "aem_drive_series");
+    void *address = fmu_library_symbol(drive, "aem_drive_series");
     if (!address) die("the --drive library has no aem_drive_series");
     DriveSeries *drive_series;
     memcpy(&drive_series, &address, sizeof drive_series);
@@ -194,7 +194,7 @@ static void drive_schedule(fmi2Component c, const Schedule *s, double start, dou
     free(t);
     free(u);
     free(rows);
-    if (library_close(drive) != 0) die("cannot unload the --drive library");
+    if (fmu_library_close(drive) != 0) die("cannot unload the --drive library");
 }
 
 static void run_schedule(const char *schedule_path, double h, double stop, const char *out_path,
