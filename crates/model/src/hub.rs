@@ -554,8 +554,7 @@ impl Hub {
         }
         totals.time += h;
         self.totals = totals;
-        if self.groups.len() > self.types.len() {
-            self.merge();
+        if self.groups.len() > self.types.len() && self.merge() {
             self.aligned = self.is_aligned();
             self.surveyed = None;
             self.read = None;
@@ -767,14 +766,7 @@ impl Hub {
             active - target
         };
         let rotation = self.config.policy == DispatchPolicy::Rotation;
-        self.order.clear();
-        self.order.extend(
-            (0..self.groups.len() as u32).filter(|&i| self.groups[i as usize].active != starting),
-        );
-        let groups = &self.groups;
-        self.order.sort_unstable_by(|&a, &b| {
-            preference(&groups[a as usize], &groups[b as usize], starting, rotation)
-        });
+        let _ = in_preference(&self.groups, starting, rotation, &mut self.order);
         for k in 0..self.order.len() {
             if need == 0 {
                 break;
@@ -798,8 +790,26 @@ impl Hub {
     }
 
     /// Merges groups of the same parameter set whose modules are in bit-identical states.
-    fn merge(&mut self) {
-        self.groups.sort_unstable_by(identity_order);
+    /// The groups stay in identity order from step to step but for the few a step moved (a
+    /// dispatch change, crossing currents): those are moved into place one by one, in about
+    /// one pass; a sort only where many are out of place. Returns whether the groups changed
+    /// (false: already in order and all distinct, the common case, found in one pass).
+    fn merge(&mut self) -> bool {
+        let (mut descents, mut equal) = (0, false);
+        for w in self.groups.windows(2) {
+            match identity_order(&w[0], &w[1]) {
+                Ordering::Less => {}
+                Ordering::Equal => equal = true,
+                Ordering::Greater => descents += 1,
+            }
+        }
+        if descents > FEW_OUT_OF_PLACE {
+            self.groups.sort_unstable_by(identity_order);
+        } else if descents > 0 {
+            insert_out_of_place(&mut self.groups);
+        } else if !equal {
+            return false;
+        }
         let mut w = 0;
         for r in 1..self.groups.len() {
             let g = self.groups[r];
@@ -811,6 +821,7 @@ impl Hub {
             }
         }
         self.groups.truncate(w + 1);
+        true
     }
 
     /// Parameter set `kind` (0: the first, which also sets the dispatch's limits).
@@ -1107,6 +1118,37 @@ fn state_rank(s: OperatingState, starting: bool) -> u8 {
     }
 }
 
+/// Fills `order` with the indices of the groups that can switch (on if `starting`, else off),
+/// in the order of [`preference`]. The groups are kept in identity order ([`Hub::merge`]):
+/// without `rotation` the candidates of each state rank in turn, each rank in the groups'
+/// order, are then in that order already, found in three passes; checked, and sorted if not
+/// (returns whether it sorted).
+fn in_preference(groups: &[Group], starting: bool, rotation: bool, order: &mut Vec<u32>) -> bool {
+    let candidates = (0..groups.len() as u32).filter(|&i| groups[i as usize].active != starting);
+    order.clear();
+    if rotation {
+        order.extend(candidates);
+    } else {
+        for rank in 0..=2 {
+            order.extend(
+                candidates
+                    .clone()
+                    .filter(|&i| state_rank(groups[i as usize].unit.state, starting) == rank),
+            );
+        }
+    }
+    let prefer = |&a: &u32, &b: &u32| {
+        preference(&groups[a as usize], &groups[b as usize], starting, rotation)
+    };
+    let in_order = order
+        .windows(2)
+        .all(|w| prefer(&w[0], &w[1]) == Ordering::Less);
+    if !in_order {
+        order.sort_unstable_by(prefer);
+    }
+    !in_order
+}
+
 /// Order of preference when switching modules on (`starting`) or off.
 fn preference(a: &Group, b: &Group, starting: bool, rotation: bool) -> Ordering {
     let mut o = Ordering::Equal;
@@ -1145,12 +1187,32 @@ fn identity_order(a: &Group, b: &Group) -> Ordering {
         .then(a.starts.cmp(&b.starts))
 }
 
+/// Groups out of identity order after a step, up to which [`Hub::merge`] moves each into
+/// place rather than sorting them all.
+const FEW_OUT_OF_PLACE: usize = 16;
+
+/// Sorts groups that are in identity order but for a few: each one out of place moves into
+/// the ordered part before it (a binary search, one rotation). No allocation; about one pass
+/// when few are out of place.
+fn insert_out_of_place(groups: &mut [Group]) {
+    for i in 1..groups.len() {
+        if identity_order(&groups[i - 1], &groups[i]) == Ordering::Greater {
+            let at =
+                groups[..i].partition_point(|g| identity_order(g, &groups[i]) != Ordering::Greater);
+            groups[at..=i].rotate_right(1);
+        }
+    }
+}
+
 fn same(a: &Group, b: &Group) -> bool {
     identity_order(a, b) == Ordering::Equal
 }
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod order_tests;
 
 #[cfg(test)]
 mod thermal_tests;
