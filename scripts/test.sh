@@ -6,8 +6,8 @@
 # through the `fmi` crate, aem-identify on synthetic campaigns) and the pytest suite (the
 # packaged .fmu through fmpy and five more importers, the win64 DLL and the commands under Wine,
 # the glibc level, the installed wheels and the sdist, the examples, the frameworks, reserves,
-# aem-study on Dask, the documentation site built strictly into target/site; beside it, at the
-# lowest priority, the fuzzers' build), then fuzzes each byte-level input (scripts/fuzz.sh).
+# aem-study on Dask, the documentation site built strictly into target/site); beside it, at the
+# lowest priority, the fuzzers build and fuzz each byte-level input (scripts/fuzz.sh).
 # Each phase's time is printed on stderr. The checkout's commands (aem-identify, aem-run) are the
 # release's portable builds in target/dist/linux64/ (aem_electrolyser.locate takes the newer of those and a
 # target/release/ build of yours).
@@ -31,25 +31,21 @@ phase .venv/bin/ruff check --quiet python tests benches packaging fuzz scripts
 phase cargo fmt --check
 phase .venv/bin/python packaging/release.py
 phase .venv/bin/python packaging/platforms.py test
-# The fuzzers' sanitizer build (its own folder, fuzz/target; unoptimised here, which builds in
-# half the time: 5 s a target are a smoke test) runs at the lowest priority beside pytest: it
-# takes the CPU that pytest leaves idle while its co-simulations and commands wait, and hardly
-# any from the tests themselves.
-export FUZZ_PROFILE="${FUZZ_PROFILE:-dev}"
+# The fuzzers (their own folder, fuzz/target) build and then run at the lowest priority beside
+# pytest and the serial test: they take the CPU those leave idle while their co-simulations and
+# commands wait, and hardly any from the tests themselves. The build is unoptimised here (it
+# builds in half the time); 5 s a target are a smoke test: every harness builds and finds
+# nothing in reach. The long runs (release build) are in docs/robustness.md
+# (SECONDS_PER_TARGET=3600 or RUNS=10000000 bash scripts/fuzz.sh).
+export FUZZ_PROFILE="${FUZZ_PROFILE:-dev}" SECONDS_PER_TARGET="${SECONDS_PER_TARGET:-5}"
 mkdir -p target
-nice -n 19 bash scripts/fuzz.sh build >target/fuzz-build.log 2>&1 &
-fuzz_build=$!
-trap 'kill $fuzz_build ${fuzz_run:-} 2>/dev/null || true' EXIT
+nice -n 19 bash -c 'bash scripts/fuzz.sh build >target/fuzz-build.log 2>&1 || { cat target/fuzz-build.log; exit 1; }
+  bash scripts/fuzz.sh >target/fuzz-run.log 2>&1; ran=$?; cat target/fuzz-run.log; exit $ran' >target/fuzz.log 2>&1 &
+fuzz=$!
+trap 'kill $fuzz 2>/dev/null || true' EXIT
 phase .venv/bin/python -m pytest tests/python -q -n 2 --dist loadgroup -m "not serial" --durations=20
-fuzz_built() { wait $fuzz_build || { cat target/fuzz-build.log >&2; return 1; }; }
-phase fuzz_built
-# 5 s a target here: every harness builds and finds nothing in reach; the long runs (release
-# build) are in docs/robustness.md (SECONDS_PER_TARGET=3600 or RUNS=10000000 bash scripts/fuzz.sh).
-# The fuzzers (their own folder, one core) run beside the serial test (the sdist's build in the
-# checkout's target folder), which leaves the other core idle most of its time.
-SECONDS_PER_TARGET="${SECONDS_PER_TARGET:-5}" bash scripts/fuzz.sh >target/fuzz-run.log 2>&1 &
-fuzz_run=$!
+# The sdist's build in the checkout's target folder.
 phase .venv/bin/python -m pytest tests/python -q -m serial
-fuzz_ran() { wait $fuzz_run && cat target/fuzz-run.log >&2 || { cat target/fuzz-run.log >&2; return 1; }; }
-phase fuzz_ran
+fuzzed() { wait $fuzz && cat target/fuzz.log >&2 || { cat target/fuzz.log >&2; return 1; }; }
+phase fuzzed
 echo "test.sh: every test passed in $SECONDS s" >&2

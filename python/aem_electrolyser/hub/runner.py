@@ -14,6 +14,7 @@ printed.
 import ctypes
 import functools
 import math
+import os
 import shutil
 import threading
 import weakref
@@ -73,14 +74,12 @@ class HubRunner:
 
     def __init__(self, fmu_path=None, hub=Hub()):
         self.fmu_path, self.hub = locate_fmu(fmu_path), hub
-        self.md = read_model_description(str(self.fmu_path))
+        self.md, self.unzipdir = _unpacked(self.fmu_path)
         self.vars = {v.name: v for v in self.md.modelVariables}
-        self.unzipdir = extract(str(self.fmu_path))
         # The FMU's library as fmpy loads it, once per thread that runs (a fresh instance each
-        # run); its libraries unloaded and unzipdir removed by close(), or when the runner is
-        # collected or the interpreter exits.
+        # run); unloaded by close(), or when the runner is collected or the interpreter exits.
         self._slaves, self._loaded = threading.local(), []
-        self._release = weakref.finalize(self, _release, self._loaded, self.unzipdir)
+        self._release = weakref.finalize(self, _release, self._loaded)
         value = dict(hub.settings)
         names = ("gain", "voltageIntercept", "ohmicResistance", "maxSetpoint", "minSetpoint", "standbyPower")
         losses = ("supplyNoLoadLoss", "supplyLossVoltage", "supplyLossResistance", "auxiliaryPower")
@@ -237,11 +236,32 @@ class HubRunner:
         return power, request
 
 
-def _release(loaded, unzipdir):
-    """Unloads the FMU's library of every FMU2Slave in `loaded`, then removes `unzipdir`."""
+def _release(loaded):
+    """Unloads the FMU's library of every FMU2Slave in `loaded`."""
     while loaded:
         loaded.pop().freeLibrary()
-    shutil.rmtree(unzipdir, ignore_errors=True)
+
+
+#: The FMUs this process has unpacked: (model description, unzip directory) by (path,
+#: modification time, size).
+_UNPACKED: dict = {}
+_UNPACKED_LOCK = threading.Lock()
+
+
+def _unpacked(fmu_path):
+    """(model description, unzip directory) of the .fmu at `fmu_path`, read and unpacked once per
+    process (again if the file changes): a runner per job no longer pays for it (30-40 ms). The
+    directory is removed when the interpreter exits, after every runner's library is unloaded
+    (finalizers run in reverse order of creation, and a runner's comes after this one's)."""
+    stat = os.stat(fmu_path)
+    key = (os.path.realpath(fmu_path), stat.st_mtime_ns, stat.st_size)
+    with _UNPACKED_LOCK:
+        if key not in _UNPACKED:
+            md = read_model_description(str(fmu_path))
+            unzipdir = extract(str(fmu_path))
+            weakref.finalize(_release, shutil.rmtree, unzipdir, ignore_errors=True)
+            _UNPACKED[key] = (md, unzipdir)
+        return _UNPACKED[key]
 
 
 class _Entries(ctypes.Structure):
