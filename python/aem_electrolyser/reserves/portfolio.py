@@ -27,6 +27,11 @@ in [τp1, τp2] by --optimise's search, on V at that count; then the modules hel
 fewest warm modules. Against it, per baseline, plain droop with equal dispatch (where every
 module can run) and with sequential dispatch (the fewest modules), no module warm.
 
+Where FCR-N and an FCR-D product are both sold, a configuration must also pass the FCR-D fast
+ramp test's combination ramps 7-8 with both capacities set (NTR §3.1.2 Req. 1b: the response to
+49.7 and 49.89 Hz, mirrored downward, within −5…+20 % of C_FCR-N plus FCR-D's share); where it
+fails, it sells only the one of the two worth more.
+
 Writes <out>/portfolio.md, .csv and .json, then prints one line per baseline and configuration.
 The capacities in % of rated power of a hub of N modules hold for any hub with the same running
 counts per module; the default 100 modules keep it to minutes.
@@ -43,7 +48,8 @@ from pathlib import Path
 
 from aem_electrolyser import cli
 from aem_electrolyser.hub.runner import Hub, HubRunner
-from aem_electrolyser.reserves import dispatch_search, optimise, report
+from aem_electrolyser.reserves import assess, dispatch_search, evaluate, optimise, report, signals
+from aem_electrolyser.reserves.requirement import FAIL
 from aem_electrolyser.reserves.prequalify import (
     BELOW_MINIMUM,
     BY_NAME,
@@ -56,6 +62,9 @@ from aem_electrolyser.reserves.prequalify import (
 )
 
 DEFAULT_PRICES = {"FCR-D up": 1.0, "FCR-D down": 1.0}
+#: The FCR-D products whose fast ramp test ends with the combination ramps 7-8 when FCR-N is
+#: sold too (NTR §3.1.2 Req. 1b).
+WITH_FCR_N = ("FCR-D up", "FCR-D down")
 
 
 def prices(text):
@@ -120,6 +129,7 @@ class Configuration:
     power: float
     hydrogen: float
     value: float
+    together: str = ""
 
 
 class Portfolio:
@@ -127,7 +137,7 @@ class Portfolio:
     states and values of the configurations tried."""
 
     def __init__(self, args, jobs=None):
-        self.args, self.jobs, self.steady_states = args, jobs, {}
+        self.args, self.jobs, self.steady_states, self.combinations = args, jobs, {}, {}
         self.curve = module_curve(args)
         from fmpy import read_model_description
 
@@ -162,11 +172,58 @@ class Portfolio:
         done = self.jobs.run([(hub, p) for _, hub, _, _ in named for p in self.products])
         out = []
         for name, hub, count, zero in named:
-            capacities = {p: done[(hub, p)][0].sellable for p in self.products}
+            sold = {p: done[(hub, p)][0].sellable for p in self.products}
+            capacities, together = self.sold_together(hub, sold)
             power, hydrogen = self.steady(hub)
             value = self.value(capacities, hydrogen)
-            out.append(Configuration(name, hub, count, hub.initial_standby, zero, capacities, power, hydrogen, value))
+            out.append(
+                Configuration(name, hub, count, hub.initial_standby, zero, capacities, power, hydrogen, value, together)
+            )
         return out
+
+    def sold_together(self, hub, capacities):
+        """(capacities, what the combination test found): where FCR-N and an FCR-D product are both
+        sold, the FCR-D fast ramp test with its combination ramps 7-8 runs on the FMU with both
+        capacities set, and the response to each ramp must lie within −5…+20 % of C_FCR-N plus
+        FCR-D's share (NTR §3.1.2 Req. 1b). Where it fails, the configuration sells only the one
+        of the two worth more (the other's capacity 0)."""
+        capacities, notes = dict(capacities), []
+        for product in WITH_FCR_N:
+            c_n, c_d = capacities.get("FCR-N", 0.0), capacities.get(product, 0.0)
+            if c_n <= 0.0 or c_d <= 0.0:
+                continue
+            results = self.combination(hub, c_n, product, c_d)
+            found = ", ".join(f"{r.measured:+.1f} %".replace("-", "−") for r in results)
+            if not any(r.status == FAIL for r in results):
+                notes.append(f"FCR-N + {product}: Req. 1b passes ({found}; −5…+20 %)")
+                continue
+            prices = self.args.prices
+            dropped = "FCR-N" if prices["FCR-N"] * c_n < prices[product] * c_d else product
+            capacities[dropped] = 0.0
+            notes.append(f"FCR-N + {product}: Req. 1b fails ({found}; −5…+20 %), {dropped} not sold")
+        return capacities, "; ".join(notes)
+
+    def combination(self, hub, c_n, product, c_d):
+        """Req. 1b's results for FCR-N at c_n [W] and `product` (an FCR-D one) at c_d [W] on `hub`
+        (its fast ramp test with ramps 7-8, both capacities set), run once per hub and capacities."""
+        key = (hub, c_n, product, c_d)
+        if key not in self.combinations:
+            fcr_n, fcr_d = BY_NAME["FCR-N"], BY_NAME[product]
+            signal = signals.fcr_d_ramp(fcr_d.direction, self.args.dt, combination=True)
+            parameters = {
+                **fcr_n.parameters,
+                **fcr_d.parameters,
+                fcr_n.capacity_parameter: c_n,
+                fcr_d.capacity_parameter: c_d,
+            }
+            runner = HubRunner(self.args.fmu, hub)
+            try:
+                trace = assess.trace(runner, signal, c_d, parameters)
+            finally:
+                runner.close()
+            results = evaluate.fcr_d_ramp(trace, c_d, signal, fcr_n_capacity=c_n)
+            self.combinations[key] = [r for r in results if "Req. 1b" in r.name]
+        return self.combinations[key]
 
     def steady(self, hub):
         """(hubPower [W], hubH2MassFlow [kg/h]) of the hub at its baseline, from the FMU."""
@@ -248,6 +305,7 @@ def rows_of(portfolio, base, configurations):
                 "hub power [W]": c.power,
                 "hydrogen [kg/h]": c.hydrogen,
                 "value [EUR/h]": c.value,
+                "sold together, Req. 1b [%]": c.together,
             }
         )
     return rows
@@ -279,6 +337,13 @@ def write(out, rows, portfolio, elapsed):
             + " | ".join(f"{100 * r[f'{p} [W]'] / rated:.2f} %" for p in portfolio.products)
             + f" | {r['hub power [W]'] / 1e3:.2f} kW | {r['hydrogen [kg/h]']:.4g} kg/h | {r['value [EUR/h]']:.4g} €/h |"
         )
+    together = [r for r in rows if r["sold together, Req. 1b [%]"]]
+    if together:
+        lines += ["", "FCR-N and FCR-D sold together, the FCR-D fast ramp test's combination ramps 7-8 (Req. 1b):", ""]
+        lines += [
+            f"- {r['baseline [% of rated]']:g} %, {r['configuration']}: {r['sold together, Req. 1b [%]']}"
+            for r in together
+        ]
     (out / "portfolio.md").write_text("\n".join(lines) + "\n")
 
 

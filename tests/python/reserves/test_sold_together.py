@@ -1,0 +1,124 @@
+"""FCR-N and FCR-D sold together (aem_electrolyser.reserves.portfolio): the FCR-D fast ramp
+test's combination ramps 7-8 (NTR §3.1.2 Req. 1b) on the packaged FMU with both capacities set.
+Every combination the table reports is run again through a plain fmpy master, its steady states
+averaged here: the response to ramp 7 (49.7 Hz) must be C_FCR-N + ½·C_FCR-D, to ramp 8
+(49.89 Hz) C_FCR-N + (0.01/0.4)·C_FCR-D, within −5…+20 %; what passes is sold, and of a pair
+that fails only the product worth more."""
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+from aem_electrolyser.hub.runner import Hub, HubRunner
+from aem_electrolyser.reserves import assess, signals
+from aem_electrolyser.reserves.products import BY_NAME
+from commands import run
+from conftest import PAPER, module_power
+
+N, BASELINE, DT = 10, 0.7, 0.2
+PRICES = {"FCR-N": 2.0, "FCR-D up": 3.0, "FCR-D down": 1.0}  # €/(MW·h)
+#: Frequency [Hz] of ramps 7 and 8 (upward; mirrored about 50 Hz for downward FCR-D), the FCR-D
+#: share there, and the last minute before each ramp's end, over which its steady state is taken.
+RAMPS = {7: (49.7, 0.5, (1290.0, 1350.0)), 8: (49.89, 0.025, (1590.0, 1650.0))}
+BEFORE = (990.0, 1050.0)  # the steady state at 50.0 Hz before ramp 7 [s]
+CLAUSE = re.compile(r"FCR-N \+ (FCR-D \w+): Req\. 1b (passes|fails) \(([^;]+);[^)]*\)(?:, (.+) not sold)?")
+
+
+@pytest.fixture(scope="module")
+def table(fmu_path, tmp_path_factory):
+    out = tmp_path_factory.mktemp("sold_together")
+    prices = ",".join(f"{p}={v}" for p, v in PRICES.items())
+    done = run(
+        ["-m", "aem_electrolyser.reserves.portfolio", "--fmu", fmu_path, "--modules", N, "--baseline", 100 * BASELINE]
+        + ["--prices", prices, "--dt", DT, "--out", out],
+        timeout=600,
+    )
+    assert done.returncode == 0, done.stderr
+    return {r["configuration"]: r for r in json.loads((out / "portfolio.json").read_text())}
+
+
+def best_hub(row):
+    zero = row["reserve filter zero [s]"]
+    return Hub(
+        N,
+        4,
+        1,
+        BASELINE,
+        filter_zero=0.0 if zero == pytest.approx(PAPER["tauZero"], rel=1e-12) else zero,
+        dispatch_target=row["setpoint [%]"],
+        initial_standby=row["warm standby [1]"],
+    )
+
+
+def deviations(driver, row, product, c_n, c_d):
+    """Req. 1b's deviations [%] at ramps 7 and 8, from a plain fmpy master holding each
+    frequency sample over its step."""
+    up = product == "FCR-D up"
+    signal = signals.fcr_d_ramp(BY_NAME[product].direction, DT, combination=True)
+    d = driver()
+    vr = d.vr
+    d.fmu.setInteger(
+        [vr["nModules"], vr["dispatch"], vr["belowMinimum"], vr["initialStandby"]],
+        [N, 4, 1, row["warm standby [1]"]],
+    )
+    d.fmu.setBoolean([vr["powerInput"]], [True])
+    zero = best_hub(row).filter_zero
+    rated = N * module_power(PAPER["maxSetpoint"])
+    parameters = {
+        "dispatchTargetSetpoint": row["setpoint [%]"],
+        "powerReference": BASELINE * rated,
+        "fcrNCapacity": c_n,
+        BY_NAME[product].capacity_parameter: c_d,
+        "frequency": signal.f[0],
+    }
+    if zero > 0:
+        parameters["reserveFilterZero"] = zero
+    d.fmu.setupExperiment(startTime=0.0)
+    d.set(**parameters)
+    d.fmu.enterInitializationMode()
+    d.fmu.exitInitializationMode()
+    t, power = signal.t, np.empty(len(signal.t))
+    for k in range(len(t)):
+        power[k] = d.get("hubPower")
+        if k + 1 < len(t):
+            d.set(frequency=signal.f[k])
+            d.step(t[k + 1] - t[k])
+
+    def mean(window):
+        inside = (t >= window[0]) & (t < window[1])
+        return power[inside].mean()
+
+    out = []
+    for frequency, share, window in RAMPS.values():
+        assert np.allclose(signal.f[(t >= window[0]) & (t < window[1])], frequency if up else 100.0 - frequency)
+        delivered = (mean(BEFORE) - mean(window)) if up else (mean(window) - mean(BEFORE))
+        out.append(100.0 * (delivered / (c_n + share * c_d) - 1.0))
+    return out
+
+
+def test_every_combination_reported_is_what_a_plain_master_measures(fmu_path, table, driver):
+    best = table["best"]
+    clauses = CLAUSE.findall(best["sold together, Req. 1b [%]"])
+    # Both FCR-D products are checked against FCR-N (at 70 % the hub sells all three alone).
+    assert [c[0] for c in clauses] == ["FCR-D up", "FCR-D down"], best["sold together, Req. 1b [%]"]
+    for product, verdict, reported, dropped in clauses:
+        shown = [float(x.replace("−", "-").rstrip(" %")) for x in reported.split(", ")]
+        c_n, c_d = best["FCR-N [W]"], best[f"{product} [W]"]
+        if verdict == "fails":
+            # The product not sold is the one worth less; its capacity alone, assessed anew.
+            assert dropped in ("FCR-N", product)
+            kept = product if dropped == "FCR-N" else "FCR-N"
+            runner = HubRunner(fmu_path, best_hub(best))
+            try:
+                alone = assess.largest(runner, BY_NAME[dropped], DT)[0].sellable
+            finally:
+                runner.close()
+            assert best[f"{dropped} [W]"] == 0.0 and alone > 0.0
+            assert PRICES[dropped] * alone <= PRICES[kept] * best[f"{kept} [W]"]
+            c_n, c_d = (alone, c_d) if dropped == "FCR-N" else (c_n, alone)
+        measured = deviations(driver, best, product, c_n, c_d)
+        assert measured == pytest.approx(shown, abs=0.06), (product, measured, shown)
+        within = all(-5.0 <= x <= 20.0 for x in measured)
+        assert within == (verdict == "passes"), (product, measured)
