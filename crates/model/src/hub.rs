@@ -883,6 +883,8 @@ impl Hub {
                 balance.ambient = ambient;
             }
         }
+        // The standby heater's power (in the survey's `others`) depends on the ambient.
+        self.surveyed = None;
         self.read = None;
     }
 
@@ -1127,7 +1129,7 @@ fn in_preference(groups: &[Group], starting: bool, rotation: bool, order: &mut V
     let candidates = (0..groups.len() as u32).filter(|&i| groups[i as usize].active != starting);
     order.clear();
     if rotation {
-        order.extend(candidates);
+        order.extend(candidates.clone());
     } else {
         for rank in 0..=2 {
             order.extend(
@@ -1144,6 +1146,10 @@ fn in_preference(groups: &[Group], starting: bool, rotation: bool, order: &mut V
         .windows(2)
         .all(|w| prefer(&w[0], &w[1]) == Ordering::Less);
     if !in_order {
+        // From the groups' own order, as always before: with groups of equal contents (a
+        // restored state may hold some) the sort then splits the same one.
+        order.clear();
+        order.extend(candidates);
         order.sort_unstable_by(prefer);
     }
     !in_order
@@ -1193,12 +1199,19 @@ const FEW_OUT_OF_PLACE: usize = 16;
 
 /// Sorts groups that are in identity order but for a few: each one out of place moves into
 /// the ordered part before it (a binary search, one rotation). No allocation; about one pass
-/// when few are out of place.
+/// when few are out of place. Where the groups moved add up to more than a few passes (long
+/// runs interleaved), the rest is sorted instead: the same order either way.
 fn insert_out_of_place(groups: &mut [Group]) {
+    let mut budget = 4 * groups.len();
     for i in 1..groups.len() {
         if identity_order(&groups[i - 1], &groups[i]) == Ordering::Greater {
             let at =
                 groups[..i].partition_point(|g| identity_order(g, &groups[i]) != Ordering::Greater);
+            if i - at > budget {
+                groups.sort_unstable_by(identity_order);
+                return;
+            }
+            budget -= i - at;
             groups[at..=i].rotate_right(1);
         }
     }

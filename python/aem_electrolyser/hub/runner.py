@@ -14,6 +14,7 @@ printed.
 import ctypes
 import functools
 import math
+import multiprocessing.util
 import os
 import shutil
 import threading
@@ -248,18 +249,30 @@ _UNPACKED: dict = {}
 _UNPACKED_LOCK = threading.Lock()
 
 
+def _forked():
+    """In a forked child: the parent's unpacked FMUs are the parent's to remove (the child
+    unpacks its own), and a lock another thread held at the fork would never be released."""
+    global _UNPACKED_LOCK
+    _UNPACKED.clear()
+    _UNPACKED_LOCK = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forked)
+
+
 def _unpacked(fmu_path):
     """(model description, unzip directory) of the .fmu at `fmu_path`, read and unpacked once per
     process (again if the file changes): a runner per job no longer pays for it (30-40 ms). The
-    directory is removed when the interpreter exits, after every runner's library is unloaded
-    (finalizers run in reverse order of creation, and a runner's comes after this one's)."""
+    directory is removed when the process ends, by this process only: at the interpreter's exit,
+    or a worker process's (multiprocessing's finalizers run there, where atexit does not)."""
     stat = os.stat(fmu_path)
     key = (os.path.realpath(fmu_path), stat.st_mtime_ns, stat.st_size)
     with _UNPACKED_LOCK:
         if key not in _UNPACKED:
             md = read_model_description(str(fmu_path))
             unzipdir = extract(str(fmu_path))
-            weakref.finalize(_release, shutil.rmtree, unzipdir, ignore_errors=True)
+            multiprocessing.util.Finalize(None, shutil.rmtree, (unzipdir,), {"ignore_errors": True}, exitpriority=0)
             _UNPACKED[key] = (md, unzipdir)
         return _UNPACKED[key]
 

@@ -30,7 +30,8 @@ module can run) and with sequential dispatch (the fewest modules), no module war
 Where FCR-N and an FCR-D product are both sold, a configuration must also pass the FCR-D fast
 ramp test's combination ramps 7-8 with both capacities set (NTR §3.1.2 Req. 1b: the response to
 49.7 and 49.89 Hz, mirrored downward, within −5…+20 % of C_FCR-N plus FCR-D's share); where it
-fails, it sells only the one of the two worth more.
+fails, it sells the products worth more (FCR-N with the FCR-D products that passed beside it,
+or the FCR-D products without FCR-N).
 
 Writes <out>/portfolio.md, .csv and .json, then prints one line per baseline and configuration.
 The capacities in % of rated power of a hub of N modules hold for any hub with the same running
@@ -182,25 +183,33 @@ class Portfolio:
         return out
 
     def sold_together(self, hub, capacities):
-        """(capacities, what the combination test found): where FCR-N and an FCR-D product are both
+        """(capacities, what the combination tests found): where FCR-N and an FCR-D product are both
         sold, the FCR-D fast ramp test with its combination ramps 7-8 runs on the FMU with both
         capacities set, and the response to each ramp must lie within −5…+20 % of C_FCR-N plus
-        FCR-D's share (NTR §3.1.2 Req. 1b). Where it fails, the configuration sells only the one
-        of the two worth more (the other's capacity 0)."""
-        capacities, notes = dict(capacities), []
-        for product in WITH_FCR_N:
-            c_n, c_d = capacities.get("FCR-N", 0.0), capacities.get(product, 0.0)
-            if c_n <= 0.0 or c_d <= 0.0:
-                continue
-            results = self.combination(hub, c_n, product, c_d)
+        FCR-D's share (NTR §3.1.2 Req. 1b). Where one fails, the configuration sells the products
+        worth more: FCR-N with the FCR-D products that passed beside it, or every FCR-D product
+        without FCR-N (upward and downward never activate together); the others' capacity 0."""
+        capacities = dict(capacities)
+        pairs = [p for p in WITH_FCR_N if capacities.get("FCR-N", 0.0) > 0.0 and capacities.get(p, 0.0) > 0.0]
+        notes, failed = [], []
+        for product in pairs:
+            results = self.combination(hub, capacities["FCR-N"], product, capacities[product])
             found = ", ".join(f"{r.measured:+.1f} %".replace("-", "−") for r in results)
-            if not any(r.status == FAIL for r in results):
-                notes.append(f"FCR-N + {product}: Req. 1b passes ({found}; −5…+20 %)")
-                continue
+            verdict = "fails" if any(r.status == FAIL for r in results) else "passes"
+            if verdict == "fails":
+                failed.append(product)
+            notes.append(f"FCR-N + {product}: Req. 1b {verdict} ({found}; −5…+20 %)")
+        if failed:
             prices = self.args.prices
-            dropped = "FCR-N" if prices["FCR-N"] * c_n < prices[product] * c_d else product
-            capacities[dropped] = 0.0
-            notes.append(f"FCR-N + {product}: Req. 1b fails ({found}; −5…+20 %), {dropped} not sold")
+
+            def worth(names):
+                return sum(prices[name] * capacities[name] for name in names)
+
+            with_fcr_n = ["FCR-N"] + [p for p in pairs if p not in failed]
+            dropped = failed if worth(with_fcr_n) > worth(pairs) else ["FCR-N"]
+            for name in dropped:
+                capacities[name] = 0.0
+            notes.append(f"{' and '.join(dropped)} not sold")
         return capacities, "; ".join(notes)
 
     def combination(self, hub, c_n, product, c_d):
@@ -305,7 +314,7 @@ def rows_of(portfolio, base, configurations):
                 "hub power [W]": c.power,
                 "hydrogen [kg/h]": c.hydrogen,
                 "value [EUR/h]": c.value,
-                "sold together, Req. 1b [%]": c.together,
+                "sold together (Req. 1b)": c.together,
             }
         )
     return rows
@@ -313,7 +322,7 @@ def rows_of(portfolio, base, configurations):
 
 def write(out, rows, portfolio, elapsed):
     args, rated = portfolio.args, portfolio.rated
-    report.write_rows(out / "portfolio", rows, digits=9)
+    report.write_rows(out / "portfolio", rows, leave_out=("sold together (Req. 1b)",), digits=9)
     sold = ", ".join(f"{p} at {v:g} €/(MW·h)" for p, v in args.prices.items())
     lines = [
         f"# Reserve products sold together ({args.modules} modules, rated {rated / 1e3:.1f} kW)",
@@ -337,11 +346,11 @@ def write(out, rows, portfolio, elapsed):
             + " | ".join(f"{100 * r[f'{p} [W]'] / rated:.2f} %" for p in portfolio.products)
             + f" | {r['hub power [W]'] / 1e3:.2f} kW | {r['hydrogen [kg/h]']:.4g} kg/h | {r['value [EUR/h]']:.4g} €/h |"
         )
-    together = [r for r in rows if r["sold together, Req. 1b [%]"]]
+    together = [r for r in rows if r["sold together (Req. 1b)"]]
     if together:
         lines += ["", "FCR-N and FCR-D sold together, the FCR-D fast ramp test's combination ramps 7-8 (Req. 1b):", ""]
         lines += [
-            f"- {r['baseline [% of rated]']:g} %, {r['configuration']}: {r['sold together, Req. 1b [%]']}"
+            f"- {r['baseline [% of rated]']:g} %, {r['configuration']}: {r['sold together (Req. 1b)']}"
             for r in together
         ]
     (out / "portfolio.md").write_text("\n".join(lines) + "\n")

@@ -2,8 +2,8 @@
 test's combination ramps 7-8 (NTR §3.1.2 Req. 1b) on the packaged FMU with both capacities set.
 Every combination the table reports is run again through a plain fmpy master, its steady states
 averaged here: the response to ramp 7 (49.7 Hz) must be C_FCR-N + ½·C_FCR-D, to ramp 8
-(49.89 Hz) C_FCR-N + (0.01/0.4)·C_FCR-D, within −5…+20 %; what passes is sold, and of a pair
-that fails only the product worth more."""
+(49.89 Hz) C_FCR-N + (0.01/0.4)·C_FCR-D, within −5…+20 %; where one fails, what is sold is
+worth more: FCR-N with the FCR-D products that passed beside it, or the FCR-D products alone."""
 
 import json
 import re
@@ -18,25 +18,32 @@ from commands import run
 from conftest import PAPER, module_power
 
 N, BASELINE, DT = 10, 0.7, 0.2
-PRICES = {"FCR-N": 2.0, "FCR-D up": 3.0, "FCR-D down": 1.0}  # €/(MW·h)
+#: Prices [€/(MW·h)]: FCR-N with upward FCR-D worth more than both FCR-D products, and the other
+#: way round.
+PRICES = {
+    "FCR-N kept": {"FCR-N": 2.0, "FCR-D up": 3.0, "FCR-D down": 1.0},
+    "FCR-N left out": {"FCR-N": 0.5, "FCR-D up": 3.0, "FCR-D down": 30.0},
+}
 #: Frequency [Hz] of ramps 7 and 8 (upward; mirrored about 50 Hz for downward FCR-D), the FCR-D
 #: share there, and the last minute before each ramp's end, over which its steady state is taken.
 RAMPS = {7: (49.7, 0.5, (1290.0, 1350.0)), 8: (49.89, 0.025, (1590.0, 1650.0))}
 BEFORE = (990.0, 1050.0)  # the steady state at 50.0 Hz before ramp 7 [s]
-CLAUSE = re.compile(r"FCR-N \+ (FCR-D \w+): Req\. 1b (passes|fails) \(([^;]+);[^)]*\)(?:, (.+) not sold)?")
+CLAUSE = re.compile(r"FCR-N \+ (FCR-D \w+): Req\. 1b (passes|fails) \(([^;]+);")
+DROPPED = re.compile(r"; ([^;]+) not sold$")
 
 
-@pytest.fixture(scope="module")
-def table(fmu_path, tmp_path_factory):
+@pytest.fixture(scope="module", params=list(PRICES))
+def table(request, fmu_path, tmp_path_factory):
+    prices = PRICES[request.param]
     out = tmp_path_factory.mktemp("sold_together")
-    prices = ",".join(f"{p}={v}" for p, v in PRICES.items())
     done = run(
         ["-m", "aem_electrolyser.reserves.portfolio", "--fmu", fmu_path, "--modules", N, "--baseline", 100 * BASELINE]
-        + ["--prices", prices, "--dt", DT, "--out", out],
+        + ["--prices", ",".join(f"{p}={v}" for p, v in prices.items()), "--dt", DT, "--out", out],
         timeout=600,
     )
     assert done.returncode == 0, done.stderr
-    return {r["configuration"]: r for r in json.loads((out / "portfolio.json").read_text())}
+    rows = {r["configuration"]: r for r in json.loads((out / "portfolio.json").read_text())}
+    return request.param, prices, rows
 
 
 def best_hub(row):
@@ -99,26 +106,36 @@ def deviations(driver, row, product, c_n, c_d):
 
 
 def test_every_combination_reported_is_what_a_plain_master_measures(fmu_path, table, driver):
-    best = table["best"]
-    clauses = CLAUSE.findall(best["sold together, Req. 1b [%]"])
+    case, prices, rows = table
+    best = rows["best"]
+    said = best["sold together (Req. 1b)"]
+    clauses = CLAUSE.findall(said)
     # Both FCR-D products are checked against FCR-N (at 70 % the hub sells all three alone).
-    assert [c[0] for c in clauses] == ["FCR-D up", "FCR-D down"], best["sold together, Req. 1b [%]"]
-    for product, verdict, reported, dropped in clauses:
+    assert [c[0] for c in clauses] == ["FCR-D up", "FCR-D down"], said
+    failed = [product for product, verdict, _ in clauses if verdict == "fails"]
+    dropped = DROPPED.search(said).group(1).split(" and ") if failed else []
+    # What was not sold, assessed alone anew: what the checks ran with.
+    assessed = {p: best[f"{p} [W]"] for p in prices}
+    for product in dropped:
+        runner = HubRunner(fmu_path, best_hub(best))
+        try:
+            assessed[product] = assess.largest(runner, BY_NAME[product], DT)[0].sellable
+        finally:
+            runner.close()
+        assert best[f"{product} [W]"] == 0.0 and assessed[product] > 0.0, product
+    for product, verdict, reported in clauses:
         shown = [float(x.replace("−", "-").rstrip(" %")) for x in reported.split(", ")]
-        c_n, c_d = best["FCR-N [W]"], best[f"{product} [W]"]
-        if verdict == "fails":
-            # The product not sold is the one worth less; its capacity alone, assessed anew.
-            assert dropped in ("FCR-N", product)
-            kept = product if dropped == "FCR-N" else "FCR-N"
-            runner = HubRunner(fmu_path, best_hub(best))
-            try:
-                alone = assess.largest(runner, BY_NAME[dropped], DT)[0].sellable
-            finally:
-                runner.close()
-            assert best[f"{dropped} [W]"] == 0.0 and alone > 0.0
-            assert PRICES[dropped] * alone <= PRICES[kept] * best[f"{kept} [W]"]
-            c_n, c_d = (alone, c_d) if dropped == "FCR-N" else (c_n, alone)
-        measured = deviations(driver, best, product, c_n, c_d)
+        measured = deviations(driver, best, product, assessed["FCR-N"], assessed[product])
         assert measured == pytest.approx(shown, abs=0.06), (product, measured, shown)
         within = all(-5.0 <= x <= 20.0 for x in measured)
         assert within == (verdict == "passes"), (product, measured)
+    if failed:
+        # Sold: what is worth more of FCR-N with the FCR-D products that passed beside it and
+        # both FCR-D products without FCR-N.
+        def worth(names):
+            return sum(prices[n] * assessed[n] for n in names)
+
+        with_fcr_n = ["FCR-N"] + [p for p, _, _ in clauses if p not in failed]
+        without = [p for p, _, _ in clauses]
+        assert dropped == (failed if worth(with_fcr_n) > worth(without) else ["FCR-N"])
+    assert case == "FCR-N kept" and dropped == ["FCR-D down"] or case == "FCR-N left out" and dropped == ["FCR-N"]

@@ -330,3 +330,38 @@ fn without_a_heater_a_module_in_standby_cools_and_starts_cold() {
         OperationParameters::default().cold_start_time
     );
 }
+
+#[test]
+fn after_an_ambient_change_the_reference_is_shared_as_a_fresh_hub_shares_it() {
+    // Modules stopped to warm standby whose heaters hold the stack: their power, which the
+    // running modules' share of a power reference leaves out, follows the ambient.
+    let t = ThermalParameters::default();
+    let thermal = ThermalParameters {
+        initial_temperature: t.cooling_setpoint,
+        standby_heater_power: 400.0,
+        ..t
+    };
+    let cfg = config(
+        6,
+        DispatchPolicy::Sequential,
+        BelowMinimum::Standby,
+        thermal,
+    );
+    let p = Parameters::default();
+    let rated = crate::dispatch::power_at_setpoint(&p, 100.0);
+    let demand = |k: usize| Demand::Power(if k < 10 { 4.5 } else { 2.5 } * rated);
+    let mut hub = Hub::new(p, cfg, demand(0)).unwrap();
+    let mut fresh = Hub::new(p, cfg, demand(0)).unwrap();
+    for k in 0..60 {
+        let ambient = 278.15 + 5.0 * (k / 7) as f64;
+        hub.set_ambient_temperature(ambient);
+        // Restored from the hub's own state: nothing kept from an earlier step.
+        fresh.restore(hub.snapshot()).unwrap();
+        fresh.set_ambient_temperature(ambient);
+        hub.step(demand(k), 30.0).unwrap();
+        fresh.step(demand(k), 30.0).unwrap();
+        assert_eq!(hub.snapshot(), fresh.snapshot(), "step {k}");
+        assert_eq!(hub.readings(), fresh.readings(), "step {k}");
+    }
+    assert!(hub.count_in(OperatingState::Standby) >= 2);
+}
