@@ -12,13 +12,6 @@ require_toolchains
 require_libclang
 require_venv
 
-if [ ! -x .venv/bin/python ]; then
-  echo "demo: creating .venv"
-  python3 -m venv .venv
-fi
-if ! .venv/bin/python -c 'import aem_electrolyser, matplotlib' 2>/dev/null; then
-  echo "demo: installing the package (editable) with fmpy, numpy, scipy and matplotlib into .venv"
-  .venv/bin/python -m pip install -q --disable-pip-version-check -c requirements.txt -e ".[plots]"
-fi
+bash scripts/demo-venv.sh .venv
 .venv/bin/python packaging/package.py --platforms linux64 --native
 .venv/bin/python -m aem_electrolyser.examples.step_schedule "$@"
