@@ -67,11 +67,18 @@ def parser():
         help=f"comma-separated [default: {','.join(DEFAULT_PRODUCTS)}]",
     )
     p.add_argument("--dt", type=cli.positive(float), default=0.1, help="test step [s] [default: 0.1]")
-    p.add_argument(
-        "--jobs", type=cli.positive(int), default=os.cpu_count() or 1, help="worker processes [default: one per core]"
+    workers = p.add_argument(
+        "--workers",
+        dest="jobs",
+        type=cli.positive(int),
+        default=os.cpu_count() or 1,
+        metavar="N",
+        help="worker processes [default: one per core]",
     )
+    cli.add_old_spelling(p, workers, "--jobs")
     cli.add_out_option(p, Path("out") / "operating_table", "the table and its figure")
     p.add_argument("--no-plots", action="store_true", help="no PNG figure")
+    cli.add_version_option(p)
     return p
 
 
@@ -93,6 +100,9 @@ class Table:
 
     def capacities(self, hubs, product):
         return self.jobs.capacities([(h, product.name) for h in hubs])
+
+    def beats(self, hubs, product, floor):
+        return self.jobs.beats([(h, product.name) for h in hubs], floor)
 
     def hub(self, dispatch, base, compensation=False, zero=0.0, count=None):
         a = self.args
@@ -124,6 +134,7 @@ class Table:
             min(t1, t2),
             max(t1, t2),
             known=(tau_zero, t2),
+            beats=lambda zs, floor: self.beats([zero_hub(z) for z in zs], product, floor),
         )
         counts = dispatch_search.feasible_counts(self.args.modules, base * self.rated, self.curve)
         dispatch = dispatch_search.search(
@@ -134,6 +145,7 @@ class Table:
             min(t1, t2),
             max(t1, t2),
             known=(tau_zero,),
+            beats=lambda zs, floor: self.beats([zero_hub(z, dispatch.count) for z in zs], product, floor),
         )
         # Ties go to the simpler configuration: the reference dispatch, then plain droop.
         joint = max(

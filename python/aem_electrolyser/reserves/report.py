@@ -38,6 +38,8 @@ class Section:
     notes: list = field(default_factory=list)
     use_reduction: bool = False
     plots: list = field(default_factory=list)
+    margins: list = field(default_factory=list)
+    readings: list = field(default_factory=list)
 
 
 def _cell(x) -> str:
@@ -88,10 +90,10 @@ def capacity(sec: Section, rated: float) -> Optional[Capacity]:
         )
     elif cr.upper_bound_passes:
         limiting = "operating window"
-        detail = (
-            f"operating window: every requirement passes at its bound, {cr.capacity:.0f} W; "
-            "a larger capacity does not fit the window at this baseline"
-        )
+        detail = f"operating window: every requirement passes at its bound, {cr.capacity:.0f} W"
+        if k is not None:
+            detail += f" (with the reduction factor K_red = {k:.4f}: {w:.0f} W to sell)"
+        detail += "; a larger capacity does not fit the window at this baseline"
     else:
         limiting = "; ".join(r.name for r in cr.limiting) or "–"
         parts = []
@@ -127,6 +129,51 @@ def capacity_sentence(c: Capacity) -> str:
     return text
 
 
+def margins_markdown(s: Section) -> list:
+    """The margins table (closest first) and the readings of the rules, as Markdown lines."""
+    out = []
+    if s.margins:
+        out += [
+            "",
+            "Margins at the capacity tested (distance inside each limit; relative to the limit, the Nyquist "
+            "distance's to the radius 0.43, the window's to the rated power; negative: outside):",
+            "",
+            "| Limit | Margin | Relative |",
+            "|---|---|---|",
+        ]
+        for m in s.margins:
+            out.append(f"| {_cell(m.name)} | {m.distance:.6g} {_cell(m.unit)} | {m.relative:+.2%} |")
+    if s.readings:
+        out += [
+            "",
+            "Readings of the rules where they leave a choice (ours marked *; the verdict uses ours):",
+            "",
+            "| Choice | Requirement | Measured | Limit | Status |",
+            "|---|---|---|---|---|",
+        ]
+        for i in s.readings:
+            r = i.requirement
+            status = {PASS: "pass", FAIL: "**FAIL**", UNSURE: "unsure"}[r.status]
+            if r.status == FAIL and s.use_reduction and r.k_red:
+                status = "**FAIL** without reduction; passes with K_red"
+            out.append(
+                f"| {_cell(i.choice)}{' *' if i.ours else ''} | {_cell(r.name)} | {_measured(r)} | "
+                f"{_cell(r.limit_text)} | {status} |"
+            )
+    return out
+
+
+def robust_text(s: Section) -> str:
+    """'robust' when every reading of the rules passes (a reduction factor covering as in the
+    verdict), else 'on an edge: <the readings that fail>'; '–' without readings."""
+    if not s.readings:
+        return "–"
+    bad = [i for i in s.readings if i.requirement.status == FAIL and not (s.use_reduction and i.requirement.k_red)]
+    if not bad:
+        return "robust"
+    return "on an edge: " + "; ".join(f"{i.requirement.name} fails with {i.choice}" for i in bad)
+
+
 def unsure_rules(sections: Sequence[Section]) -> list:
     seen, out = set(), []
     for s in sections:
@@ -147,6 +194,8 @@ def to_markdown(sections: Sequence[Section], title: str, rated_power: float, not
         c = capacity(s, rated_power)
         if c is not None:
             out += [f"**Capacity: {capacity_sentence(c)}.** Limiting requirement: {c.detail}.", ""]
+            if s.readings and c.w > 0:
+                out += [f"Under every reading of the rules: {robust_text(s)}.", ""]
         if s.capacity is not None:
             where = f", {c.tested}" if c is not None else ""
             out += [f"Requirements at {s.capacity:.0f} W ({100 * s.capacity / rated_power:.2f} % of rated){where}:", ""]
@@ -164,6 +213,7 @@ def to_markdown(sections: Sequence[Section], title: str, rated_power: float, not
                 st = "**FAIL** without reduction; passes with K_red"
             cells = [r.name, _measured(r), r.limit_text, st, k, r.source + ("; " + r.note if r.note else "")]
             out.append("| " + " | ".join(_cell(x) for x in cells) + " |")
+        out += margins_markdown(s)
         s_notes = list(s.notes) + (["plots: " + ", ".join(f"`{p}`" for p in s.plots)] if s.plots else [])
         out += [""] + [f"- {n}" for n in s_notes] + ([""] if s_notes else [])
     uns = unsure_rules(sections)
@@ -303,6 +353,11 @@ def write_json(path, sections: Sequence[Section], title: str, rated_power: float
                 }
             )
         entry.update({"notes": list(s.notes), "plots": list(s.plots), "requirements": [r.to_dict() for r in s.results]})
+        entry["margins"] = [
+            {"limit": m.name, "margin": m.distance, "unit": m.unit, "relative": m.relative} for m in s.margins
+        ]
+        entry["readings"] = [{"choice": i.choice, "ours": i.ours, **i.requirement.to_dict()} for i in s.readings]
+        entry["robust"] = robust_text(s)
         doc["tests"].append(entry)
     Path(path).write_text(json.dumps(_finite(doc), indent=2, ensure_ascii=False, allow_nan=False), encoding="utf-8")
     return Path(path)
@@ -511,15 +566,24 @@ def plot_nyquist(
     title: Optional[str] = None,
     annotation: Optional[str] = None,
     failing: bool = False,
+    dense: Optional["fd.DenseCurve"] = None,
 ) -> Path:
-    """Nyquist curve of G0 = F·G (interpolated between tested periods, the tested points
-    labelled) with the circles of radius 0.43 and 0.43·0.95 around −1; beside it Req. 9
-    (|G_c| against |1/D|, marked unsure). `annotation` as in plot_time_test."""
+    """Nyquist curve of G0 = F·G (interpolated between the prescribed periods, those labelled)
+    and, given the dense curve, G0 at every period tested (the unit's own curve), with the
+    circles of radius 0.43 and 0.43·0.95 around −1; beside it Req. 9 (|G_c| against |1/D|,
+    marked unsure). `annotation` as in plot_time_test."""
     _, g0, gp = fd.nyquist(points, product)
     plt = _pyplot()
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 5))
     a1.plot(g0.real, g0.imag, color="tab:green", lw=1.2, label="G0 = F·G (interpolated)")
     a1.plot(gp.real, gp.imag, "o", color="tab:green")
+    if dense is not None:
+        gd = np.array([p.F for p in dense.points]) * fd.grid_model(
+            product, "stability", [p.omega for p in dense.points]
+        )
+        a1.plot(gd.real, gd.imag, ".-", color="tab:blue", lw=0.8, ms=3, label="G0 tested densely")
+        k = int(np.argmin(dense.distance))
+        a1.annotate(f"min {dense.minimum:.4f} at {dense.at_period:.4g} s", (gd[k].real, gd[k].imag), fontsize=7)
     for p, g in zip(points, gp):
         a1.annotate(f"{p.period:g} s", (g.real, g.imag), fontsize=7)
     for r, ls in ((fd.RADIUS, "--"), (fd.RADIUS * fd.MARGIN, "-")):
