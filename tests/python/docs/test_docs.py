@@ -1,8 +1,9 @@
 """The documentation: the MkDocs site builds in strict mode (no broken link, anchor, image or
 docstring); every variable of modelDescription.xml is in the site's generated variables page and
 in the FMU's documentation/index.html (both parsed as HTML), with the model description's
-causality, type and start; index.html is what packaging/docs_reference.py makes of the model
-description; every command has its page with its own --help; every module of the package is on
+causality, type and start; index.html and the committed reference pages (docs/reference/: the
+variables, every command's own --help) are what packaging/docs_reference.py makes now; every
+command has its page with its own --help; every module of the package is on
 the Python API pages; the README stays short and keeps the quick start."""
 
 import importlib.util
@@ -177,21 +178,48 @@ def rust(command):
     return command.argv[0] == "-c" and "aem_electrolyser.native" in command.argv[1]
 
 
+REGENERATE = "run .venv/bin/python packaging/docs_reference.py (Rust commands: cargo build --release --bins first)"
+
+
+def test_the_committed_reference_pages_are_what_the_generator_makes():
+    """docs/reference/ (committed, so that docs/ reads as files) against the pages made now from
+    modelDescription.xml and every command's --help. A Rust command not built here is left out;
+    the Python commands' pages are compared under the Python version their index records
+    (argparse lays --help out differently from one version to the next)."""
+    docs = ROOT / "docs"
+    helps = docs_reference.command_helps()
+    index = docs / docs_reference.COMMANDS_INDEX
+    recorded = docs_reference.pages_python(index.read_text("utf-8")) if index.is_file() else None
+    same_python = recorded in (None, sys.version_info[:2])
+    skipped = set()
+    for command in docs_reference.COMMANDS:
+        status, text = helps[command.slug]
+        if rust(command):
+            try:
+                binary(command.name.split()[0])
+            except NotBuilt:
+                skipped.add(docs_reference.command_page(command))
+                continue
+        elif not same_python:
+            skipped.add(docs_reference.command_page(command))
+            continue
+        assert status == 0, f"{command.name} --help failed: {text}"
+    if skipped:  # the index shows what failed and records the Python
+        skipped.add(docs_reference.COMMANDS_INDEX)
+    stale = [
+        name
+        for name, text in docs_reference.reference_pages(helps).items()
+        if name not in skipped and (not (docs / name).is_file() or (docs / name).read_text("utf-8") != text)
+    ]
+    assert not stale, f"out of date in docs/: {', '.join(stale)}: {REGENERATE}"
+
+
 def test_every_command_has_its_help_page(site):
     for command in docs_reference.COMMANDS:
         page = site / "reference" / "commands" / command.slug / "index.html"
         assert page.is_file(), command.name
         text = page.read_text("utf-8")
-        built = True
-        if rust(command):
-            try:
-                binary(command.name.split()[0])
-            except NotBuilt:
-                built = False
-        if built:
-            assert f"$ {command.name} --help" in text and re.search(r"(?i)usage:", text), command.name
-        else:
-            assert "Not available where this site was built" in text, command.name
+        assert f"$ {command.name} --help" in text and re.search(r"(?i)usage:", text), command.name
     index = (site / "reference" / "commands" / "index.html").read_text("utf-8")
     assert all(f'href="{c.slug}/"' in index for c in docs_reference.COMMANDS)
 
@@ -231,3 +259,17 @@ def test_the_readme_is_short_and_keeps_the_quick_start():
     assert "bash scripts/test.sh    # installs everything, builds the release bundle, runs every test" in readme
     for target in re.findall(r"\]\(([^)#:]+)(?:#[^)]*)?\)", readme):
         assert (ROOT / target).exists(), f"README links to {target}, which does not exist"
+
+
+def test_every_link_of_the_pages_works_as_a_file():
+    """docs/ read as files (GitHub, a checkout): every relative link of its pages and of the README
+    names a file that exists (the generated reference pages are committed for that)."""
+    dead = []
+    for page in [*(ROOT / "docs").rglob("*.md"), ROOT / "README.md"]:
+        text = re.sub(r"^```.*?^```", "", page.read_text("utf-8"), flags=re.S | re.M)
+        for target in re.findall(r"\]\(([^)\s]+)\)", text):
+            if re.match(r"[a-z]+:", target) or target.startswith("#"):
+                continue
+            if not (page.parent / target.split("#")[0]).exists():
+                dead.append(f"{page.relative_to(ROOT)}: {target}")
+    assert not dead, "links to files that do not exist:\n" + "\n".join(dead)
