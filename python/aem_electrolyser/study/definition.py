@@ -16,6 +16,7 @@
     time = "time"                # seconds or RFC 3339 timestamps
     column = "power [MW]"        # unit in brackets: W, kW, MW (power) or % (setpoint)
     interpolation = "hold"       # or "linear"
+    rating = "50 MW"             # what hub_size is a % of (power series; default: the largest value)
 
     [axes]                       # crossed, in this order
     series = ["wind"]            # default: every series
@@ -38,6 +39,8 @@ nearest allowed name ("did you mean ...").
 import hashlib
 import itertools
 import json
+import math
+import os
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -50,7 +53,7 @@ from aem_electrolyser.wind.year import WindClimate
 
 from .parameters import ModelParameters
 from .quantities import duration, power
-from .series import GeneratedWind, SeriesFile
+from .series import TIME_COLUMN, GeneratedWind, SeriesFile, series_columns, series_input
 
 YEAR = 365 * 86400.0
 #: Bumped when the KPIs' definitions change: stored results of older ones are not reused.
@@ -145,15 +148,26 @@ class Study:
             if key in head and not isinstance(head[key], str):
                 raise ValueError(f"[study] {key} must be a string, not {head[key]!r}")
         self.title = head.get("title", self.path.stem)
+        # Without fmu = ... the environment variable AEM_FMU names the FMU if set: an error is its.
+        variable = locate.FMU_VARIABLE
+        from_environment = "fmu" not in head and bool(os.environ.get(variable))
         try:
             self.fmu = locate.fmu_path((here / head["fmu"]).resolve() if "fmu" in head else None)
         except locate.NotBuilt as e:
+            if from_environment:
+                raise StudyError(
+                    f"{variable}: {os.environ[variable]}: no such FMU (the environment variable {variable} "
+                    f"names the FMU of a study without fmu = ... in [study]: correct it or unset it)"
+                ) from None
             raise ValueError(f"[study] fmu: {e} (set fmu = ... in [study])") from None
         try:
             self.fmu_bytes = self.fmu.read_bytes()
             self.model = ModelParameters(self.fmu)
         except Exception as e:  # noqa: BLE001 - an unreadable file or no FMU: fmpy's words
-            raise ValueError(f"[study] fmu: {self.fmu} is not an FMU ({' '.join(str(e).split())})") from None
+            why = f"{self.fmu} is not an FMU ({' '.join(str(e).split())})"
+            if from_environment:
+                raise StudyError(f"{variable}: {why}; the environment variable {variable} names the FMU") from None
+            raise ValueError(f"[study] fmu: {why}") from None
         self.step = _positive_duration(head.get("step", 1.0), "[study] step")
         self.horizon = _positive_duration(head["horizon"], "[study] horizon") if "horizon" in head else None
         self.files = {}  # sha256 -> bytes of files that String parameters name
@@ -171,6 +185,26 @@ class Study:
         if not self.series:
             raise ValueError('no [series.NAME] table: give a generated wind year (generator = "wind") or a file')
         self.axes = self._axes(doc.get("axes", {}), here)
+        self._check_hub_sizes()
+
+    def _check_hub_sizes(self):
+        """A hub_size axis needs a rating for every series it is crossed with: a power series
+        with a positive rating (its own or its largest value)."""
+        axes = dict(self.axes)
+        if "hub size [%]" not in axes:
+            return
+        for name in dict.fromkeys(sets["series"] for _, sets in axes["series"]):
+            series = self.series[name]
+            if series.input != "power":
+                raise ValueError(
+                    f"[axes] hub_size: series {name!r} is a setpoint series (%); hub sizes are % of a power "
+                    "series' rating"
+                )
+            if getattr(series, "error", None) is None and not series.rating > 0:
+                raise ValueError(
+                    f"[axes] hub_size: series {name!r} has no positive value to size hubs against: "
+                    f'give rating = "... MW" in [series.{name}]'
+                )
 
     def valid_axes(self):
         """The names an [axes] key may have: the special axes and the FMU's parameters."""
@@ -221,15 +255,42 @@ class Study:
         path = here / spec.pop("file")
         if not path.is_file():
             raise ValueError(f"{where} file: no file {path}")
+        # The file's header against the keys that name its columns, now: the rows are the
+        # scenarios' to fail alone ("row 2: the value is not a number"), its columns the file's.
+        try:
+            columns = series_columns(path)
+        except Exception as e:  # noqa: BLE001 - pandas', pyarrow's or the csv sniffer's words
+            raise ValueError(f"{where} file: cannot read the columns of {path} ({' '.join(str(e).split())})") from None
+        for key, default in (("time", TIME_COLUMN), ("column", None)):
+            wanted = spec.get(key, default)
+            if wanted not in columns:
+                given = "" if key in spec else ' (the default: give time = "NAME")'
+                raise ValueError(
+                    f"{where} {key}: no column {wanted!r}{given} in {path}{did_you_mean(wanted, columns)}; "
+                    f"its columns: {', '.join(map(repr, columns))}"
+                )
+        kind = series_input(spec["column"])
+        if kind is None:
+            raise ValueError(
+                f"{where} column: {spec['column']!r} names no unit W, kW, MW or % in brackets "
+                '(e.g. "power [MW]" or "setpoint [%]")'
+            )
         rating = spec.pop("rating", None)
+        if rating is not None:
+            if kind != "power":
+                raise ValueError(
+                    f"{where} rating: {spec['column']!r} is a setpoint series (%); rating is for power series "
+                    "(W, kW, MW): the power hub sizes are % of"
+                )
+            rating_value = power(rating, f"{where} rating")
+            if not 0 < rating_value < math.inf:
+                raise ValueError(f"{where} rating: {rating!r} is not a positive power")
         try:
             series = SeriesFile(name, path, **spec)
         except ValueError as e:
             raise ValueError(f"{where} {e}") from None
         if rating is not None:
-            series.rating = power(rating, f"{where} rating")
-            if not series.rating > 0:
-                raise ValueError(f"{where} rating: {rating!r} is not a positive power")
+            series.rating = rating_value
         return series
 
     def _axes(self, spec, here):

@@ -9,6 +9,7 @@ what finished. The KPIs do not depend on where a scenario ran (same binary, same
 import contextlib
 import logging
 import os
+import signal
 import sys
 import tempfile
 import zipfile
@@ -111,18 +112,117 @@ def _client(scheduler, workers):
             yield client
         return
     n = workers or os.cpu_count() or 1
-    with (
-        LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address=None,
-            silence_logs=logging.ERROR,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
+    cluster = client = None
+    stopped = True
+    try:
+        # Ctrl-C in a terminal reaches every process of the group. The workers are this process's
+        # to stop: they start with SIGINT blocked (inherited) and, once up, ignore it (their
+        # preload, worker.dask_setup), where they would die with a traceback each. A Ctrl-C while
+        # they start waits here until they are up, and is raised then.
+        with _sigint_held():
+            cluster = LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+                # Dask's HTTP routes on a free port of the loopback: its default 8787 may be
+                # another cluster's (a warning of four lines) and no one reads them here.
+                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                preload=["aem_electrolyser.study.worker"],
+            )
+            client = Client(cluster)
         yield client
+        stopped = False
+    finally:
+        _close(client, cluster, quickly=stopped)
+
+
+#: Seconds a stopped study gives its client to close.
+CLOSE_TIMEOUT = 3.0
+
+
+@contextlib.contextmanager
+def _sigint_held():
+    """A Ctrl-C (SIGINT) held back until the block ends, then raised: SIGINT is blocked in this
+    thread (and so in the threads and processes it starts meanwhile, where the platform allows
+    it) and one that reaches another thread is only noted."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    noted = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: noted.append(signum))
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if hasattr(signal, "pthread_sigmask") else None
+    try:
+        yield
+    finally:
+        if mask is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, mask)  # one that waited is noted now
+        signal.signal(signal.SIGINT, previous)
+        if noted and callable(previous):
+            previous(signal.SIGINT, None)  # Python's own handler raises KeyboardInterrupt
+
+
+def _close(client, cluster, quickly):
+    """Closes the client and the LocalCluster. `quickly` (a study stopped or failing): no
+    waiting for running scenarios, whose results would not be stored anyway: the worker
+    processes and their aem-run are killed, their nannies told first not to restart them, and
+    Dask's complaints about it are not shown."""
+    if quickly:
+        for name in ("distributed", "tornado", "asyncio"):
+            logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+    with _sigint_held():  # a second Ctrl-C does not leave the workers behind
+        if client is not None:
+            with contextlib.suppress(Exception):
+                client.close(timeout=CLOSE_TIMEOUT if quickly else None)
+        if cluster is None:
+            return
+        if quickly:
+            with contextlib.suppress(Exception):
+                _kill_workers(cluster)
+        cluster.close()
+
+
+def _kill_workers(cluster):
+    """Kills the worker processes of a LocalCluster and (on Linux) their children, the aem-run
+    they run, once their nannies know not to restart them (Nanny.close_gracefully, the signal
+    Dask's own shutdown gives)."""
+    nannies = list(cluster.workers.values())
+
+    async def no_restarts():
+        for nanny in nannies:
+            nanny.close_gracefully()
+
+    cluster.sync(no_restarts)
+    for nanny in nannies:
+        pid = nanny.pid
+        if pid:
+            for process in [*_children(pid), pid]:
+                with contextlib.suppress(OSError):
+                    os.kill(process, getattr(signal, "SIGKILL", signal.SIGTERM))
+
+
+def _children(pid):
+    """Every descendant process id of `pid`, from /proc (none where there is no /proc)."""
+    found, todo = [], [pid]
+    while todo:
+        parent = todo.pop()
+        try:
+            tasks = os.listdir(f"/proc/{parent}/task")
+        except OSError:
+            continue
+        for task in tasks:
+            try:
+                with open(f"/proc/{parent}/task/{task}/children") as f:
+                    kids = [int(k) for k in f.read().split()]
+            except OSError:
+                continue
+            found = kids + found
+            todo += kids
+    return found
 
 
 def _package_zip():

@@ -19,8 +19,35 @@ from .quantities import WATTS, power
 from aem_electrolyser.wind.year import FARM_RATING, WindClimate, farm_power_year
 
 
+#: The time column of a file series unless its table names another (time = "...").
+TIME_COLUMN = "time [s]"
+
+
 class SeriesError(ValueError):
     """A series that cannot drive a scenario (unreadable, unitless, gaps, not covering it)."""
+
+
+def series_columns(path):
+    """The column names of a series file (CSV or Parquet), from its header alone."""
+    path = Path(path)
+    if path.suffix.lower() == ".parquet":
+        import pyarrow.parquet as pq
+
+        return list(pq.read_schema(path).names)
+    import pandas as pd  # here: 2 s of import that a refused command line need not wait for
+
+    return [str(c) for c in pd.read_csv(path, sep=None, engine="python", nrows=0).columns]
+
+
+def series_input(column):
+    """What a value column drives by the unit in brackets at its end: "power" (W, kW, MW),
+    "setpoint" (%), or None (no such unit)."""
+    unit = re.search(r"\[([^\]]+)\]\s*$", column)
+    if unit and unit.group(1) in WATTS:
+        return "power"
+    if unit and unit.group(1) == "%":
+        return "setpoint"
+    return None
 
 
 @dataclass
@@ -49,7 +76,7 @@ class SeriesFile:
     name: str
     path: Path
     column: str
-    time: str = "time [s]"
+    time: str = TIME_COLUMN
     interpolation: str = "hold"
     rating: float | None = None  # [W]; default: the largest value
     times: np.ndarray | None = None  # [s] from the first sample
@@ -61,6 +88,7 @@ class SeriesFile:
     def __post_init__(self):
         if self.interpolation not in ("hold", "linear"):
             raise ValueError(f"series {self.name}: interpolation is hold or linear, not {self.interpolation!r}")
+        self.input = series_input(self.column) or self.input  # by its unit, also if its rows are bad
         try:
             self.times, self.values, self.input = read_series(self.path, self.time, self.column)
         except (SeriesError, OSError, ValueError, KeyError) as e:
@@ -95,8 +123,8 @@ def read_series(path, time_column, value_column):
         frame = pd.read_parquet(path, columns=[time_column, value_column])
     else:
         frame = pd.read_csv(path, sep=None, engine="python", usecols=[time_column, value_column])
-    unit = re.search(r"\[([^\]]+)\]\s*$", value_column)
-    if not unit or (unit.group(1) not in WATTS and unit.group(1) != "%"):
+    kind = series_input(value_column)
+    if kind is None:
         raise SeriesError(f"the column {value_column!r} names no unit W, kW, MW or % in brackets")
     raw_time = frame[time_column]
     if pd.api.types.is_numeric_dtype(raw_time):
@@ -119,9 +147,10 @@ def read_series(path, time_column, value_column):
     backwards = np.flatnonzero(np.diff(times) <= 0)
     if backwards.size:
         raise SeriesError(f"row {backwards[0] + 2}: the time does not increase")
-    if unit.group(1) == "%":
+    if kind == "setpoint":
         return times - times[0], values, "setpoint"
-    return times - times[0], values * power(f"1 {unit.group(1)}", value_column), "power"
+    unit = re.search(r"\[([^\]]+)\]\s*$", value_column).group(1)
+    return times - times[0], values * power(f"1 {unit}", value_column), "power"
 
 
 @functools.lru_cache(maxsize=1)

@@ -8,9 +8,11 @@ import hashlib
 import json
 import os
 import platform
+import signal
 import socket
 import subprocess
 import tempfile
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,6 +23,26 @@ from .series import SeriesError, reference
 
 class ScenarioError(ValueError):
     """A scenario that cannot run: no runner for the worker, an inconsistent definition."""
+
+
+class RunnerKilled(RuntimeError):
+    """aem-run ended by a signal: the scenario did not fail, it was stopped, so it has no record
+    (on Dask its task fails and the client counts it lost: a rerun runs it)."""
+
+
+def dask_setup(worker):
+    """Dask preload hook (aem-study's LocalCluster names this module as its workers' preload):
+    Ctrl-C in the terminal reaches every process of the group, and a worker is the client's to
+    stop, so it ignores SIGINT instead of dying with a traceback. By a Python handler, not
+    SIG_IGN, so that aem-run (a new program: caught signals reset) still stops at Ctrl-C."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, _ignore)
+        if hasattr(signal, "pthread_sigmask"):  # started with it blocked (engine._client)
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+def _ignore(signum, frame):
+    pass
 
 
 def this_platform():
@@ -69,6 +91,9 @@ def run_scenario(key: str, definition: dict, bundle: Bundle) -> dict:
     FMU's messages, run time and worker."""
     record = {"scenario": key, "definition": definition, "worker": f"{socket.gethostname()}:{os.getpid()}"}
     try:
+        series = definition["series"]
+        if series.get("error"):  # the series' own words, before anything derived from it (its span)
+            raise SeriesError(series["error"])
         runner = bundle.runners.get(this_platform())
         if runner is None:
             raise ScenarioError(
@@ -100,7 +125,6 @@ def run_scenario(key: str, definition: dict, bundle: Bundle) -> dict:
         steps = round(horizon / step)
         if steps < 1 or abs(steps * step - horizon) > 1e-9 * horizon:
             raise ScenarioError(f"the horizon {horizon} s is not a whole number of steps of {step} s")
-        series = definition["series"]
         values = reference(series, step, horizon, bundle.series.get(series.get("sha256")))
         with tempfile.NamedTemporaryFile(dir=_cache_dir(), suffix=".f64", delete=False) as f:
             np.ascontiguousarray(values, dtype="<f8").tofile(f)  # no copy of a year's 252 MB
@@ -108,6 +132,8 @@ def run_scenario(key: str, definition: dict, bundle: Bundle) -> dict:
             done = subprocess.run(args + ["--reference", f.name], capture_output=True, text=True)
         finally:
             os.unlink(f.name)
+        if done.returncode < 0:  # killed (Ctrl-C, a worker closing, the OOM killer): not the scenario's fault
+            raise RunnerKilled(f"aem-run was killed by signal {-done.returncode}; the scenario is not stored")
         try:
             report = json.loads(done.stdout)
         except json.JSONDecodeError:

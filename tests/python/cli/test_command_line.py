@@ -260,6 +260,26 @@ TABLE = [
         near="--workers",
     ),
     out_file_case("aem-study", 2, "{study}", "--serial"),
+    case(
+        "aem-study",
+        "runner-not-a-program",
+        ["{study}", "--runner", "{text_fmu}", "--serial", *OUT],
+        ["--runner", "{text_fmu}", "is not a program"],
+    ),
+    case(
+        "aem-study",
+        "series-column-missing",
+        ["{series_column_missing}", "--serial", *OUT],
+        ["{series_column_missing}", "[series.site] time: no column 'time [s]'", "{file}", "its columns: "],
+    ),
+    case(
+        "aem-study",
+        "example-near-miss",
+        ["--example", "hub_sizng", "--out", "{out}/study.toml"],
+        ["--example", "'hub_sizng'", "examples: hub_sizing"],
+        near="hub_sizing",
+    ),
+    case("aem-study", "example-over-a-file", ["--example", "hub_sizing", "--out", "{file}"], ["{file}", "exists"]),
     # --- aem-identify fit|validate|synthesize (the results: fit -o FILE, validate --csv FILE, synthesize DIR)
     case(
         "aem-identify",
@@ -342,6 +362,7 @@ STUDIES = {
     "horizn": STUDY.replace("horizon", "horizn") + WIND + "[axes]\nseed = [1]\n",
     "axis_table": STUDY + WIND + "[axis]\nseed = [1]\n",
     "hub_size_0": STUDY + WIND + "[axes]\nhub_size = [40, 0]\n",
+    "series_column_missing": STUDY + '[series.site]\nfile = "existing_file"\ncolumn = "power [MW]"\n',
 }
 
 

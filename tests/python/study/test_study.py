@@ -30,7 +30,7 @@ from aem_electrolyser.study.definition import Study
 from aem_electrolyser.study.kpis import KPIS
 from aem_electrolyser.study.series import reference
 from aem_electrolyser.study.table import table
-from aem_electrolyser.study.worker import run_scenario
+from aem_electrolyser.study.worker import RunnerKilled, run_scenario
 
 BIN = Path(sys.executable).parent
 RUNNER = locate.binary("aem-run")
@@ -309,8 +309,39 @@ def assert_one_line(err, *said):
 
 def test_study_file_mistakes_stop_before_anything_runs(tmp_path, fmu_path, capsys):
     """Each mistake: status 2, one line naming the file, the table and key, and the nearest
-    allowed name; no output folder made."""
+    allowed name; no output folder made. A file series' header is checked with the file: its
+    columns named by the keys, the unit of its value column, its rating."""
+    (tmp_path / "flat.csv").write_text("time [s],power [MW]\n0,1\n600,1\n")
+    (tmp_path / "stamped.csv").write_text("timestamp,power [MW]\n0,1\n600,1\n")
+    (tmp_path / "zero.csv").write_text("time [s],power [MW]\n0,0\n600,0\n")
+    (tmp_path / "sp.csv").write_text("time [s],setpoint [%]\n0,80\n600,80\n")
+    (tmp_path / "nounit.csv").write_text("time [s],power\n0,1\n600,1\n")
+    flat = '[series.f]\nfile = "flat.csv"\ncolumn = "power [MW]"\n'
+    setpoint = '[series.s]\nfile = "sp.csv"\ncolumn = "setpoint [%]"\n'
     for body, said in [
+        (
+            '[series.f]\nfile = "flat.csv"\ncolumn = "power [kW]"\n',
+            "[series.f] column: no column 'power [kW]' in "
+            f"{tmp_path / 'flat.csv'} (did you mean 'power [MW]'?); its columns: 'time [s]', 'power [MW]'",
+        ),
+        (
+            '[series.f]\nfile = "stamped.csv"\ncolumn = "power [MW]"\n',
+            "[series.f] time: no column 'time [s]' (the default: give time = \"NAME\") in",
+        ),
+        (
+            '[series.f]\nfile = "stamped.csv"\ntime = "timestamps"\ncolumn = "power [MW]"\n',
+            "[series.f] time: no column 'timestamps' in",
+        ),
+        ('[series.f]\nfile = "nounit.csv"\ncolumn = "power"\n', "[series.f] column: 'power' names no unit"),
+        (flat + "rating = 0\n", "[series.f] rating: 0 is not a positive power"),
+        (flat + "rating = inf\n", "[series.f] rating: inf is not a positive power"),
+        (flat + 'rating = "64 MWh"\n', "[series.f] rating: '64 MWh' is not a number with a unit of W, kW, MW"),
+        (setpoint + 'rating = "1 MW"\n', "[series.s] rating: 'setpoint [%]' is a setpoint series (%)"),
+        (setpoint + "[axes]\nhub_size = [50]\n", "[axes] hub_size: series 's' is a setpoint series (%)"),
+        (
+            '[series.z]\nfile = "zero.csv"\ncolumn = "power [MW]"\n[axes]\nhub_size = [50]\n',
+            "[axes] hub_size: series 'z' has no positive value to size hubs against: give rating",
+        ),
         (WIND + "[axes]\nhysterisis = [1]\n", "[axes]: unknown axis 'hysterisis' (did you mean 'hysteresis'?)"),
         (WIND + "[axes]\nhub_sise = [40]\n", "[axes]: unknown axis 'hub_sise' (did you mean 'hub_size'?)"),
         (
@@ -376,6 +407,8 @@ def test_a_misspelled_axis_names_the_valid_axes_and_the_nearest(tmp_path, fmu_pa
         (["--workers", "2", "--serial"], "not allowed with argument"),
         (["--serail"], "unknown option --serail (did you mean '--serial'?)"),
         (["--runner", "no-such-aem-run"], "--runner: no file no-such-aem-run"),
+        (["--runner", str(Path(__file__)), "--serial"], "is not a program"),  # before anything runs
+        (["--example", "hub_sizing"], "--example writes a study file: give no STUDY.toml with it"),
     ],
 )
 def test_bad_arguments_are_one_line_and_status_2(tmp_path, fmu_path, capsys, arguments, said):
@@ -815,3 +848,186 @@ moduleParameterFile = ["two.json", "one.json"]
     for (_, row), gains in zip(frame.iterrows(), ([0.50, 0.56, 0.50, 0.56], [0.50] * 4)):
         assert row["status"] == "done", row["message"]
         assert row["hydrogen [kg]"] == pytest.approx(sum(c * k * 80.0 for k in gains) * KG_PER_NL, rel=1e-9)
+
+
+# --- Ctrl-C, --version and --help without the extra, the example studies, the series' checks ------
+
+
+@pytest.mark.cluster
+def test_ctrl_c_in_the_terminal_stops_the_cluster_at_once_and_the_study_resumes(tmp_path, fmu_path):
+    """Ctrl-C in a terminal signals every process of the group: aem-study, its Dask workers and
+    their aem-run. One line and status 130, soon, no worker's traceback; what finished is stored,
+    what was running is not (it was stopped, it did not fail), and a rerun runs only that."""
+    path = write_study(tmp_path, GATED_STUDY, fmu_path)
+    out, gate = tmp_path / "out", Gate(tmp_path)
+    study = AEM_STUDY + [str(path), "--out", str(out), "--workers", "2", "--no-plots", "--runner", str(gate.runner)]
+    first = start(study)
+    try:
+        gate.let_through(1)
+        wait_for(lambda: len(stored(out)) == 1, "a stored scenario")
+        # Both workers on their next scenario: their gated aem-run wait at the gate.
+        wait_for(lambda: sum("aem-run" in cmdline(c) for c in children(first.pid)) >= 2, "two running scenarios")
+        sent = time.monotonic()
+        os.killpg(first.pid, signal.SIGINT)  # as the terminal does
+        _, err = first.communicate(timeout=120)
+        took = time.monotonic() - sent
+    finally:
+        end_group(first)
+    said = [line for line in err.splitlines() if line.strip() and not line.startswith("[finished")]
+    assert first.returncode == 130 and "Traceback" not in err, err
+    assert len(said) == 1 and "stopped; finished scenarios are kept" in said[0] and "run again" in said[0], err
+    assert took < 15, f"{took:.1f} s from Ctrl-C to the end"
+    before = stored(out)
+    assert len(before) == 1, "the stopped scenarios are not stored as failed"
+    gate.open()
+    second = subprocess.run(study, capture_output=True, text=True, timeout=300)
+    assert second.returncode == 0, second.stderr
+    assert len([line for line in second.stderr.splitlines() if line.startswith("[finished")]) == 5
+    after = stored(out)
+    assert len(after) == 6 and all(after[name] == mtime for name, mtime in before.items())
+
+
+#: Runs aem-study's entry point as if the [study] extra were not installed: its packages
+#: neither import nor are found (extras.missing looks them up as a core-only install would).
+WITHOUT_STUDY_EXTRA = """
+import runpy, sys
+BLOCKED = {"dask", "distributed", "pandas", "pyarrow", "matplotlib"}
+class NotInstalled:
+    def find_spec(self, name, path=None, target=None):
+        if name.partition(".")[0] in BLOCKED:
+            raise ModuleNotFoundError(f"No module named {name!r}", name=name)
+        return None
+sys.meta_path.insert(0, NotInstalled())
+how, sys.argv = sys.argv[1], sys.argv[1:]
+if how == "entry point":
+    sys.argv[0] = "aem-study"
+    from aem_electrolyser.commands import study
+    study()
+else:
+    runpy.run_module("aem_electrolyser.study", run_name="__main__", alter_sys=True)
+"""
+
+
+@pytest.mark.parametrize("how", ["entry point", "module"])
+def test_help_version_and_examples_answer_without_the_study_extra(tmp_path, fmu_path, how):
+    """--help, --version and --example need nothing of the [study] extra (the parser imports
+    none of it); running a study names the extra in one line."""
+    from aem_electrolyser import __version__
+
+    def run(*arguments):
+        return subprocess.run(
+            [sys.executable, "-c", WITHOUT_STUDY_EXTRA, how, *arguments],
+            cwd=tmp_path,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+
+    shown = run("--help")
+    assert shown.returncode == 0 and "--example" in shown.stdout and "--workers" in shown.stdout, shown
+    version = run("--version")
+    assert version.returncode == 0 and version.stdout == f"aem-study {__version__}\n", version
+    if how == "module":  # the entry point's extra check is commands.py's
+        listed = run("--example")
+        assert listed.returncode == 0 and listed.stdout.startswith("hub_sizing "), listed
+    refused = run(str(write_study(tmp_path, WIND, fmu_path)))
+    assert refused.returncode == 1 and "Traceback" not in refused.stderr, refused
+    assert_one_line(refused.stderr, "needs the [study] extra", "pip install 'aem-electrolyser[study]'")
+
+
+def test_an_example_study_is_written_and_runs(tmp_path, fmu_path, monkeypatch, capsys):
+    """--example lists the examples shipped in the package; --example NAME writes one (to
+    NAME.toml here, or to --out), never over an existing file; the file written is a study
+    that reads and, at a short horizon, runs. The checkout keeps no second copy of it."""
+    from conftest import ROOT
+
+    monkeypatch.setenv("AEM_FMU", str(fmu_path))
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["--example"]) == 0
+    listed = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in listed] == ["hub_sizing"] and "64 MW" in listed[0]
+    assert cli.main(["--example", "hub_sizing"]) == 0
+    written = tmp_path / "hub_sizing.toml"
+    assert written.read_text() == (Path(cli.__file__).parent / "examples" / "hub_sizing.toml").read_text()
+    assert f"wrote {written.name}" in capsys.readouterr().out
+    assert cli.main(["--example", "hub_sizing"]) == 2, "never over an existing file"
+    assert_one_line(capsys.readouterr().err, "hub_sizing.toml exists")
+    (tmp_path / "mine").mkdir()
+    assert cli.main(["--example", "hub_sizing", "--out", "mine"]) == 0
+    assert (tmp_path / "mine" / "hub_sizing.toml").read_text() == written.read_text()
+    assert cli.main(["--example", "hub_sizng"]) == 2
+    assert_one_line(capsys.readouterr().err, "--example: no example 'hub_sizng' (did you mean 'hub_sizing'?)")
+
+    study = Study(written)
+    assert len(study.scenarios()) == 36 and study.horizon == 365 * 86400.0
+    assert study.axis_columns == ["series", "seed", "hub size [%]", "dispatch"]
+    short = tmp_path / "short.toml"
+    short.write_text(
+        written.read_text().replace('horizon = "365 d"', 'horizon = "1 min"').replace("seed = [1, 2, 3]", "seed = [1]")
+    )
+    _, frame = run_study(short, tmp_path / "out", serial=True)
+    assert len(frame) == 12 and (frame["status"] == "done").all(), frame["message"].tolist()
+    assert not (ROOT / "examples" / "hub_sizing.toml").exists(), "one copy: the package's"
+
+
+def test_the_closing_line_names_the_files_where_they_are(tmp_path, fmu_path, capsys):
+    (tmp_path / "flat.csv").write_text("time [s],power [MW]\n0,1\n600,1\n")
+    path = write_study(
+        tmp_path, FLAT.replace("nModules = 500\n", "").replace("hysteresis = [2, 5]", "nModules = [500, 600]"), fmu_path
+    )
+    out = tmp_path / "out"
+    assert cli.main([str(path), "--serial", "--runner", str(RUNNER), "--out", str(out)]) == 0
+    closing = capsys.readouterr().out.splitlines()[-1]
+    assert closing.startswith(f"wrote {out}/: "), closing
+    names = closing.removeprefix(f"wrote {out}/: ").split(", ")
+    assert any(name.startswith("plots/") and name.endswith(".png") for name in names), closing
+    assert all((out / name).is_file() for name in names), closing
+
+
+def test_aem_fmu_pointing_nowhere_is_named_as_the_cause(tmp_path, fmu_path, monkeypatch, capsys):
+    """A study without fmu = ... takes the FMU of the environment variable AEM_FMU if set: an
+    error is AEM_FMU's, not the study file's."""
+    (tmp_path / "study.toml").write_text('[study]\ntitle = "test"\n' + WIND)
+    (tmp_path / "text.fmu").write_text("not an FMU\n")
+    for value, said in ((tmp_path / "no" / "such.fmu", "no such FMU"), (tmp_path / "text.fmu", "is not an FMU")):
+        monkeypatch.setenv("AEM_FMU", str(value))
+        assert cli.main([str(tmp_path / "study.toml"), "--serial", "--out", str(tmp_path / "out")]) == 2
+        err = capsys.readouterr().err
+        assert_one_line(err, f"AEM_FMU: {value}", said)
+        assert "[study] fmu" not in err and "--fmu" not in err, err
+
+
+def test_a_bad_series_says_so_whatever_the_horizon(tmp_path, fmu_path):
+    """A series whose rows are bad fails its scenarios with its own words, also when the
+    horizon is its span (the default), which a bad series does not have."""
+    (tmp_path / "bad.csv").write_text("time [s],power [MW]\n0,10\n1,ten\n2,10\n")
+    path = write_study(tmp_path, '[series.bad]\nfile = "bad.csv"\ncolumn = "power [MW]"\n', fmu_path)
+    _, frame = run_study(path, tmp_path / "out", serial=True)
+    assert frame["status"].tolist() == ["failed"]
+    assert "row 2: the value is not a number" in frame["message"].iloc[0], frame["message"].iloc[0]
+
+
+def test_the_file_series_keys_are_documented():
+    """Every key of a file series (rating too) is in the study file format of docs/studies.md."""
+    from conftest import ROOT
+
+    from aem_electrolyser.study.definition import FILE_SERIES_KEYS
+
+    text = (ROOT / "docs" / "studies.md").read_text()
+    block = text[text.index("[series.site]") :]
+    block = block[: block.index("```")]
+    for key in FILE_SERIES_KEYS:
+        assert f"\n{key} = " in block, key
+
+
+def test_a_runner_killed_by_a_signal_leaves_no_record(tmp_path, fmu_path):
+    """aem-run ended by a signal (Ctrl-C, its worker closing, the OOM killer) did not fail its
+    scenario: no record, so a rerun runs it (on Dask the client counts it lost)."""
+    (tmp_path / "flat.csv").write_text("time [s],power [MW]\n0,1\n600,1\n")
+    killed = tmp_path / "killed-aem-run"
+    killed.write_text("#!/bin/sh\nkill -KILL $$\n")
+    killed.chmod(0o755)
+    study = Study(write_study(tmp_path, FLAT, fmu_path))
+    with pytest.raises(RunnerKilled, match="killed by signal 9"):
+        engine.run(study, tmp_path / "out", serial=True, runner=killed, quiet=True)
+    assert stored(tmp_path / "out") == {}

@@ -321,7 +321,7 @@ def test_all_failed(tmp_path):
     assert "  hydrogen [kg]: no values" in text and "Mean hydrogen" not in text
 
 
-# --- best cases and what they took: a hub-sizing study like examples/hub_sizing.toml ----------
+# --- best cases and what they took: a hub-sizing study like the example (--example hub_sizing)
 
 DISPATCH = ["equal", "sequential"]
 HUB_SIZES = [40.0, 100.0]
