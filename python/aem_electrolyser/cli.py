@@ -22,10 +22,9 @@ import os
 import re
 import sys
 import tempfile
-import zipfile
 from pathlib import Path
 
-from aem_electrolyser.locate import NotBuilt, fmu_path
+from aem_electrolyser.locate import FMU_VARIABLE, NotBuilt, fmu_from_environment, fmu_path, fmu_problem
 
 
 def program_name():
@@ -36,10 +35,16 @@ def program_name():
     return Path(sys.argv[0]).name
 
 
+def nearest(value, allowed):
+    """The name of `allowed` nearest to `value` (as text), or None when none is near."""
+    near = difflib.get_close_matches(str(value), [str(a) for a in allowed], n=1, cutoff=0.6)
+    return near[0] if near else None
+
+
 def did_you_mean(value, allowed):
     """' (did you mean X?)' for the nearest of `allowed`, or ''."""
-    near = difflib.get_close_matches(str(value), [str(a) for a in allowed], n=1, cutoff=0.6)
-    return f" (did you mean {near[0]!r}?)" if near else ""
+    near = nearest(value, allowed)
+    return f" (did you mean {near!r}?)" if near else ""
 
 
 class UsageError(Exception):
@@ -69,8 +74,8 @@ class CommandLine(argparse.ArgumentParser):
             names = [a.strip().strip("'") for a in allowed.split(",")]
             return f"{option}: {value!r} is not one of {', '.join(names)}{did_you_mean(value, names)}"
         unknown = re.match(r"unrecognized arguments: (.*)$", message)
-        if unknown:
-            options = [o for a in self._actions for o in a.option_strings]
+        if unknown:  # suggested among the options --help shows (not the old spellings kept hidden)
+            options = [o for a in self._actions if a.help != argparse.SUPPRESS for o in a.option_strings]
             first = unknown.group(1).split()[0]
             return f"unknown option {first}{did_you_mean(first.split('=')[0], options)}; see --help"
         return message
@@ -124,19 +129,22 @@ def one_of(allowed):
 
 
 def list_of(allowed):
-    """A type for comma-separated names of `allowed` (a list, order kept, no repeats); 'all'
-    stands for every one."""
+    """A type for comma-separated names of `allowed` (a list, order kept, no repeats), in any
+    case ('fcr-d up' is 'FCR-D up'); 'all' stands for every one."""
+    spelled = {str(a).casefold(): a for a in allowed}
 
     def parse(text):
-        if text.strip() == "all":
+        if text.strip().casefold() == "all":
             return list(allowed)
         names = [n.strip() for n in text.split(",") if n.strip()]
         if not names:
             raise argparse.ArgumentTypeError(f"name at least one of {', '.join(allowed)}")
         for n in names:
-            if n not in allowed:
-                raise argparse.ArgumentTypeError(f"{n!r} is not one of {', '.join(allowed)}{did_you_mean(n, allowed)}")
-        return list(dict.fromkeys(names))
+            if n.casefold() not in spelled:
+                near = nearest(n.casefold(), spelled)
+                hint = f" (did you mean {spelled[near]!r}?)" if near else ""  # in the names' own spelling
+                raise argparse.ArgumentTypeError(f"{n!r} is not one of {', '.join(allowed)}{hint}")
+        return list(dict.fromkeys(spelled[n.casefold()] for n in names))
 
     return parse
 
@@ -156,19 +164,16 @@ def add_fmu_option(parser):
 
 def resolve_fmu(parser, args):
     """The FMU that --fmu names (or the default), or a usage error (status 2): the file is
-    missing, or it is not an FMU (a zip archive with a modelDescription.xml)."""
+    missing, or it is not an FMU (a zip archive with a modelDescription.xml). An FMU that the
+    environment variable AEM_FMU names is blamed on AEM_FMU, not on --fmu."""
+    from_environment = fmu_from_environment(args.fmu)
     try:
         path = fmu_path(args.fmu)
     except NotBuilt as e:
-        parser.error(f"--fmu: {e}")
-    if path.is_dir():
-        parser.error(f"--fmu: {path} is a folder, not an FMU file")
-    try:
-        with zipfile.ZipFile(path) as z:
-            z.getinfo("modelDescription.xml")
-    except (zipfile.BadZipFile, KeyError, OSError) as e:
-        reason = "it has no modelDescription.xml" if isinstance(e, KeyError) else "not a zip archive"
-        parser.error(f"--fmu: {path} is not an FMU ({reason})")
+        parser.error(str(e) if from_environment else f"--fmu: {e}")
+    problem = fmu_problem(path)
+    if problem:
+        parser.error(f"{FMU_VARIABLE if from_environment else '--fmu'}: {path} {problem}")
     return path
 
 
@@ -177,6 +182,24 @@ def add_out_option(parser, default, what="the result files"):
     parser.add_argument(
         "--out", type=Path, default=Path(default), metavar="FOLDER", help=f"folder for {what} [default: {default}]"
     )
+
+
+def add_version_option(parser):
+    """Adds --version: the program's name and the package's version (the Cargo workspace's)."""
+    from aem_electrolyser import __version__
+
+    parser.add_argument(
+        "--version", action="version", version=f"{parser.prog} {__version__}", help="show the version and exit"
+    )
+
+
+def add_old_spelling(parser, action, old):
+    """Accepts `old` as a spelling of the option `action` (what add_argument returned) that an
+    earlier version had: the same destination and value, not shown by --help nor suggested."""
+    kwargs = {"dest": action.dest, "default": argparse.SUPPRESS, "help": argparse.SUPPRESS}
+    if action.nargs != 0:  # an option with a value
+        kwargs.update(type=action.type, nargs=action.nargs, choices=action.choices, metavar=action.metavar)
+    parser.add_argument(old, action=type(action), **kwargs)
 
 
 def _refuse(path, error):

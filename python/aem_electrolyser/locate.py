@@ -8,6 +8,7 @@ or `bash scripts/test.sh` fill.
 """
 
 import os
+import zipfile
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent
@@ -38,9 +39,13 @@ def fmu_path(path=None):
     """The FMU to use: `path` if given, else the environment variable AEM_FMU, else the FMU of
     this installation (the wheel's, or the checkout's `target/fmu/AemElectrolyser.fmu`).
 
-    Raises NotBuilt when the chosen file does not exist."""
-    if path is None:
-        path = os.environ.get(FMU_VARIABLE) or None
+    Raises NotBuilt when the chosen file does not exist (naming AEM_FMU when the path came from
+    it)."""
+    if path is None and fmu_from_environment():
+        path = Path(os.environ[FMU_VARIABLE])
+        if not path.is_file():
+            raise NotBuilt(f"{FMU_VARIABLE}: {path}: no such FMU")
+        return path
     if path is not None:
         path = Path(path)
         if not path.is_file():
@@ -59,6 +64,25 @@ def fmu_path(path=None):
     raise NotBuilt(
         f"this installation of aem-electrolyser has no FMU ({bundled}); install a platform wheel or set {FMU_VARIABLE}"
     )
+
+
+def fmu_from_environment(path=None):
+    """Whether fmu_path(path) takes the FMU from the environment variable AEM_FMU (no `path`
+    given and AEM_FMU set): the name an error about the FMU should give."""
+    return path is None and bool(os.environ.get(FMU_VARIABLE))
+
+
+def fmu_problem(path):
+    """Why the file `path` is not an FMU (a zip archive with a modelDescription.xml), or None."""
+    path = Path(path)
+    if path.is_dir():
+        return "is a folder, not an FMU file"
+    try:
+        with zipfile.ZipFile(path) as z:
+            z.getinfo("modelDescription.xml")
+    except (zipfile.BadZipFile, KeyError, OSError) as e:
+        return f"is not an FMU ({'it has no modelDescription.xml' if isinstance(e, KeyError) else 'not a zip archive'})"
+    return None
 
 
 def exe(name):

@@ -24,6 +24,15 @@ with needs("plots", __name__):
     import matplotlib.pyplot as plt
 
 PANELS = [("current", "Current [A]"), ("voltage", "Voltage [V]"), ("power", "Power [W]"), ("h2_flow", "H2 flow [Nl/h]")]
+#: The columns of `aem-identify validate --csv` that the figure reads.
+COLUMNS = ("time", *(f"{key}_{side}" for key, _ in PANELS for side in ("measured", "model")), "compared")
+
+
+def missing_columns(path: Path):
+    """The COLUMNS that the CSV's header lacks (none for a file without a header: it has no rows)."""
+    with path.open(newline="") as f:
+        header = next(csv.reader(f), None)
+    return [c for c in COLUMNS if header and c not in {h.strip() for h in header}]
 
 
 def load(path: Path):
@@ -44,6 +53,14 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if not args.csv.is_file():
         parser.error(f"csv: {args.csv} {'is a folder' if args.csv.is_dir() else 'does not exist'}; give the CSV file")
+    try:
+        missing = missing_columns(args.csv)
+    except (OSError, UnicodeDecodeError, csv.Error) as e:
+        parser.error(f"csv: cannot read {args.csv}: {cli.one_line(e)}")
+    if missing:
+        parser.error(
+            f"csv: {args.csv} lacks the column(s) {', '.join(missing)}: give the CSV of aem-identify validate --csv"
+        )
     cli.writable(args.png)
     d = load(args.csv)
     hours = (d["time"] - d["time"][0]) / 3600.0

@@ -97,9 +97,9 @@ fn set_by_name(import: &Fmi2Import, fmu: &mut InstanceCS, name: &str, text: &str
             .max_by(|a, b| a.0.total_cmp(&b.0));
         match nearest {
             Some((score, near)) if score >= 0.8 => {
-                format!("--param: the FMU has no parameter {name} (did you mean {near}?)")
+                format!("--parameter: the FMU has no parameter {name} (did you mean {near}?)")
             }
-            _ => format!("--param: the FMU has no parameter {name}"),
+            _ => format!("--parameter: the FMU has no parameter {name}"),
         }
     })?;
     if !matches!(var.causality, Causality::Parameter | Causality::Input) {

@@ -3,7 +3,7 @@
 //!
 //! ```sh
 //! aem-run --fmu target/fmu/AemElectrolyser.fmu --reference wind.f64 --step 1 --input power \
-//!     --param dispatch=2 --param belowMinimum=1 --hub-size 0.9 --source-rating 64e6
+//!     --parameter dispatch=2 --parameter belowMinimum=1 --hub-size 0.9 --source-rating 64e6
 //! ```
 //!
 //! `--reference` is a file of little-endian f64, one value per step ([W] for `--input power`,
@@ -13,14 +13,15 @@
 //!
 //! Prints one JSON object: `{"status": "done", "kpis": {...}, "messages": [...]}` with the
 //! KPIs of aem_electrolyser.study.kpis, or `{"status": "failed", "message": "..."}` naming the failed call
-//! and the FMU's own messages (exit status 1).
+//! and the FMU's own messages (exit status 1). A reader that goes away (`aem-run ... | head`)
+//! does not change the exit status, as for the package's other commands.
 
 mod driver;
 mod fmu_messages;
 mod kpis;
 
 use std::fs::File;
-use std::io::{BufReader, Read};
+use std::io::{BufReader, ErrorKind, Read, Write};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -45,10 +46,11 @@ Options:
   --step SECONDS         communication step, > 0
   --start SECONDS        start time [default: 0]
   --input power|setpoint what the reference drives [default: power]
-  --param NAME=VALUE     a parameter by its model-description name (repeatable; enumerations by code)
+  --parameter NAME=VALUE a parameter by its model-description name (repeatable; enumerations by code)
   --hub-size F           size the hub to F times --source-rating W of rated power (both > 0)
   --source-rating W      rated power of the source [W]
   -h, --help             this text
+  -V, --version          the version
 
 Exit status: 0 done, 1 the FMU or the run failed, 2 a bad argument; the JSON on stdout says which.
 ";
@@ -92,11 +94,12 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
                     other => return Err(format!("--input {other}: power or setpoint")),
                 }
             }
-            "--param" => {
+            // --param: the name before --parameter (aem-study's workers still give it).
+            "--parameter" | "--param" => {
                 let text = value()?;
                 let (name, v) = text
                     .split_once('=')
-                    .ok_or(format!("--param {text}: NAME=VALUE"))?;
+                    .ok_or(format!("--parameter {text}: NAME=VALUE"))?;
                 parameters.push((name.trim().to_string(), v.to_string()));
             }
             other => return Err(unknown(other)),
@@ -141,9 +144,9 @@ fn parse_args(argv: &[String]) -> Result<Args, String> {
     })
 }
 
-/// Whether a failure of the run is about an argument (`--fmu …`, `--param …`): exit status 2.
+/// Whether a failure of the run is about an argument (`--fmu …`, `--parameter …`): exit status 2.
 fn error_names_an_argument(message: &str) -> bool {
-    message.starts_with("--fmu ") || message.starts_with("--param")
+    message.starts_with("--fmu ") || message.starts_with("--parameter")
 }
 
 /// Whether `path` starts as a zip archive does ("PK\x03\x04"; an FMU is one).
@@ -155,15 +158,16 @@ fn is_zip(path: &Path) -> bool {
 }
 
 /// The options of aem-run.
-const OPTIONS: [&str; 8] = [
+const OPTIONS: [&str; 9] = [
     "--fmu",
     "--reference",
     "--step",
     "--start",
     "--input",
-    "--param",
+    "--parameter",
     "--hub-size",
     "--source-rating",
+    "--version",
 ];
 
 /// "unknown argument X", with the nearest option where one is near (Jaro-Winkler ≥ 0.8).
@@ -203,18 +207,46 @@ fn read_reference(path: &Path) -> Result<Vec<f64>, String> {
     Ok(values)
 }
 
+/// Writes `text` to stdout. A reader that went away (`aem-run ... | head`, a worker that died)
+/// is no error: the command ends as it would have, quietly, as the package's Python commands do.
+/// Any other failure to write is one line on stderr and exit status 1.
+fn print_out(text: &str) {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != ErrorKind::BrokenPipe => {
+            print_err(&format!("aem-run: error: cannot write to stdout: {e}"));
+            std::process::exit(1);
+        }
+        _ => {}
+    }
+}
+
+/// Writes a line to stderr; a closed stderr is ignored (never a panic).
+fn print_err(line: &str) {
+    let _ = writeln!(std::io::stderr().lock(), "{line}");
+}
+
 fn main() {
     let argv: Vec<String> = std::env::args().skip(1).collect();
     if argv.iter().any(|a| a == "--help" || a == "-h") {
-        print!("{USAGE}");
+        print_out(USAGE);
+        return;
+    }
+    if argv.iter().any(|a| a == "--version" || a == "-V") {
+        print_out(&format!("aem-run {}\n", env!("CARGO_PKG_VERSION")));
         return;
     }
     let args = match parse_args(&argv) {
         Ok(args) => args,
         Err(error) => {
             // A bad argument: one line for a person on stderr, the JSON for a worker on stdout.
-            eprintln!("aem-run: error: {error} (aem-run --help lists the options)");
-            println!("{}", json!({ "status": "failed", "message": error }));
+            print_err(&format!(
+                "aem-run: error: {error} (aem-run --help lists the options)"
+            ));
+            print_out(&format!(
+                "{}\n",
+                json!({ "status": "failed", "message": error })
+            ));
             std::process::exit(2);
         }
     };
@@ -250,7 +282,7 @@ fn main() {
             };
             // The worker reads the JSON; a person reads this line. An FMU that does not load
             // or a parameter it does not have is a bad argument found once the FMU is read.
-            eprintln!("aem-run: error: {message}");
+            print_err(&format!("aem-run: error: {message}"));
             let code = if error_names_an_argument(&message) {
                 2
             } else {
@@ -259,6 +291,6 @@ fn main() {
             (json!({ "status": "failed", "message": message }), code)
         }
     };
-    println!("{report}");
+    print_out(&format!("{report}\n"));
     std::process::exit(code);
 }

@@ -222,8 +222,12 @@ def main(argv=None):
     cli.add_out_option(parser, "out", "wind_hub.csv and wind_hub.png")
     args = parser.parse_args(argv)
     duration = args.duration if args.duration else args.hours * 3600.0
+    given = f"--duration: {duration:g} s" if args.duration else f"--hours: {args.hours:g} h ({duration:g} s)"
     if duration < 2.0:
-        parser.error(f"--duration: {duration:g} s is shorter than two 1 s steps")
+        parser.error(f"{given} is shorter than two 1 s steps")
+    if abs(duration - round(duration)) > 1e-9 * duration:  # the hub runs whole 1 s steps
+        parser.error(f"{given} is not a whole number of the hub's 1 s steps")
+    duration = float(round(duration))
     require("plots", parser.prog)
     args.fmu = cli.resolve_fmu(parser, args)
     cli.writable_folder(args.out)

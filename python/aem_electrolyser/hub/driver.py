@@ -8,7 +8,9 @@ mosaik and HELICS tests).
 
 A call the FMU refuses raises hub.messages.FmuError with the FMU's own message (its log is kept
 in hub.messages.MESSAGES, not printed). Parameters and inputs are set by name with the setter of their FMI type (Real, Integer or
-Enumeration, Boolean), so the FMU's variable names are the only interface.
+Enumeration, Boolean), so the FMU's variable names are the only interface; an enumeration takes
+its code or the name of one of its items in the model description (dispatch="sequential"), as
+study files do.
 """
 
 import shutil
@@ -18,6 +20,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
+from aem_electrolyser.cli import did_you_mean
 from aem_electrolyser.hub.messages import fmu_words, instantiate
 from aem_electrolyser.locate import fmu_path as locate_fmu
 
@@ -54,12 +57,28 @@ class HubFMU:
             v = self._vars[name]
             if v.type == "Real":
                 self.fmu.setReal([v.valueReference], [float(value)])
-            elif v.type in ("Integer", "Enumeration"):
+            elif v.type == "Enumeration":
+                self.fmu.setInteger([v.valueReference], [self._code(v, value)])
+            elif v.type == "Integer":
                 self.fmu.setInteger([v.valueReference], [int(value)])
             elif v.type == "Boolean":
                 self.fmu.setBoolean([v.valueReference], [bool(value)])
             else:
                 raise TypeError(f"{name}: unsupported type {v.type}")
+
+    @staticmethod
+    def _code(variable, value):
+        """The code of an enumeration's value: the name of one of its items (as the model
+        description declares them) or a code (the FMU checks it)."""
+        if not isinstance(value, str):
+            return int(value)
+        items = {item.name: int(item.value) for item in variable.declaredType.items}
+        if value not in items:
+            raise ValueError(
+                f"{variable.name} = {value!r}: not one of {', '.join(items)} (or their codes "
+                f"{', '.join(map(str, items.values()))}){did_you_mean(value, items)}"
+            )
+        return items[value]
 
     def get(self, *names):
         out = []

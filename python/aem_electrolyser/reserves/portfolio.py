@@ -108,10 +108,17 @@ def parser():
         "--hydrogen-value", type=cli.non_negative(float), default=0.0, help="€/kg of hydrogen made [default: 0]"
     )
     p.add_argument("--dt", type=cli.positive(float), default=0.1, help="test step [s] [default: 0.1]")
-    p.add_argument(
-        "--jobs", type=cli.positive(int), default=os.cpu_count() or 1, help="worker processes [default: one per core]"
+    workers = p.add_argument(
+        "--workers",
+        dest="jobs",
+        type=cli.positive(int),
+        default=os.cpu_count() or 1,
+        metavar="N",
+        help="worker processes [default: one per core]",
     )
+    cli.add_old_spelling(p, workers, "--jobs")
     cli.add_out_option(p, Path("out") / "portfolio", "the portfolio's tables")
+    cli.add_version_option(p)
     return p
 
 

@@ -22,8 +22,8 @@ rated power, the limiting requirement with its measured value against its limit)
 --no-plots, PNG plots of every product's tests (at the capacity, or, where none passes, at the
 smallest capacity tried), each naming the limiting requirement; then <out>/summary.md and .csv
 (products × hubs) and prints the summary. Several values of --dispatch, --baseline, --products
-are comma-separated. Jobs (hub × product) run in parallel processes (--jobs, default one per
-core).
+are comma-separated. Jobs (hub × product) run in parallel processes (--workers, default one
+per core).
 
 The reserve control is a family: every module's setpoint pre-filtered so that the zero of the
 current's transfer function K(τn s + 1)/((τp1 s + 1)(τp2 s + 1)) sits at τn (the FMU's
@@ -359,12 +359,15 @@ def parser():
     p.add_argument(
         "--dt", type=cli.positive(float), default=0.1, help="test signal sampling and FMU step [s] [default: 0.1]"
     )
-    p.add_argument(
-        "--jobs",
+    workers = p.add_argument(
+        "--workers",
+        dest="jobs",
         type=cli.positive(int),
         default=os.cpu_count() or 1,
+        metavar="N",
         help="parallel worker processes [default: one per core]",
     )
+    cli.add_old_spelling(p, workers, "--jobs")
     p.add_argument(
         "--parameter",
         action="append",
@@ -374,6 +377,7 @@ def parser():
     )
     cli.add_out_option(p, Path("out") / "prequalification", "the reports, plots and summary")
     p.add_argument("--no-plots", action="store_true", help="no PNG plots")
+    cli.add_version_option(p)
     return p
 
 
@@ -444,9 +448,15 @@ def check_baselines(p, args):
         floor, what = (least, "every module at minSetpoint") if d == "equal" else (one, "one module at minSetpoint")
         low = [b for b in args.baseline if 100.0 * b < floor - 1e-9]
         if low:
+            # Equal dispatch is the default --dispatch: below its floor, sequential dispatch (the
+            # fewest modules) is what holds the baseline, for --optimise-dispatch as well.
+            instead, sequential = "", f" give --dispatch sequential, which holds down to {one:.2f} %"
+            if d == "equal" and 100.0 * low[0] >= one - 1e-9:
+                also = "; --optimise-dispatch assesses the hubs of --dispatch too:"
+                instead = (also if args.optimise_dispatch else ", or") + sequential
             p.error(
                 f"--baseline: {100 * low[0]:g} % is below what {d} dispatch can hold, {floor:.2f} % of rated "
-                f"({what}); give each within [{floor:.2f}, 100]"
+                f"({what}); give each within [{floor:.2f}, 100]{instead}"
             )
 
 

@@ -9,9 +9,13 @@ argument and output-path errors are run here.
 """
 
 import importlib.util
+import sys
 import tomllib
 import xml.etree.ElementTree as ET
 import zipfile
+from pathlib import Path
+
+import numpy as np
 
 import pytest
 
@@ -48,6 +52,8 @@ COMMANDS = [
         "scripts/shrink_png.py",
     )
 ]
+# the console entry points (aem-run and aem-identify: the native commands)
+COMMANDS += [[str(Path(sys.executable).parent / name)] for name in ("aem-prequalify", "aem-run", "aem-identify")]
 
 
 def validation_trace(path):
@@ -227,6 +233,32 @@ def test_a_buffered_stdout_meets_the_closed_pipe_at_exit_quietly(name, tmp_path,
 @pytest.mark.parametrize("command", COMMANDS, ids=" ".join)
 def test_help_on_a_closed_stdout_is_quiet(command):
     assert_quiet(run([*command, "--help"], buffered=True))  # argparse itself is quiet when unbuffered
+
+
+AEM_RUN = str(Path(sys.executable).parent / "aem-run")
+
+
+def quiet_native(done, status=0):
+    """A native command ended with `status`, without a panic ("failed printing to stdout")."""
+    assert done.returncode == status, done.stderr
+    assert "panicked" not in done.stderr and "failed printing" not in done.stderr, done.stderr
+
+
+@pytest.mark.parametrize("option", ["--help", "--version"])
+def test_aem_run_answers_on_a_closed_stdout_quietly(option):
+    quiet_native(run([AEM_RUN, option]))
+    assert run([AEM_RUN, option]).stderr == ""
+
+
+def test_aem_run_ends_as_it_would_have_on_a_closed_stdout(tmp_path, fmu_path):
+    """A run whose reader went away ends with the run's status, 0 (its JSON goes nowhere); a
+    bad argument still with 2 and its one line on stderr."""
+    reference = tmp_path / "reference.f64"
+    np.full(10, 3e7, dtype="<f8").tofile(reference)
+    quiet_native(run([AEM_RUN, "--fmu", fmu_path, "--reference", reference, "--step", "1"]))
+    refused = run([AEM_RUN, "--fmu", fmu_path, "--reference", reference, "--step", "0"])
+    quiet_native(refused, status=2)
+    assert refused.stderr.startswith("aem-run: error: --step 0"), refused.stderr
 
 
 def test_platforms_refuses_an_unknown_platform_before_it_builds():

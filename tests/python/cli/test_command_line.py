@@ -1,8 +1,8 @@
 """The command-line convention (aem_electrolyser.cli) of every command, on bad input.
 
 A bad argument is refused before any work: exit status 2, exactly one non-empty line on stderr,
-`<program>: error: ...`, naming the option (or the positional, or the study file's key) and,
-where a near name exists, "did you mean" it; no traceback anywhere, and no result file or folder
+`<program>: error: ...`, naming the option (or the positional, or the study file's key, or the
+environment variable AEM_FMU) and, where a near name exists, "did you mean" it; no traceback anywhere, and no result file or folder
 written (tmp_path holds afterwards exactly the inputs the test wrote). `--out` names a folder: an
 existing regular file there is a bad argument like any other (status 2, one line naming it). A failure
 during the work is status 1 and one line, "(--debug shows the traceback)"; `--debug` shows it.
@@ -11,15 +11,18 @@ Every case is a refusal before any work (or a failure at the FMU's instantiation
 about a second, the commands that import pandapower or Dask before parsing in about three.
 """
 
+import os
 import re
 import subprocess
 import sys
+import tomllib
 import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+import aem_electrolyser
 from conftest import ROOT
 
 BIN = Path(sys.executable).parent
@@ -50,6 +53,7 @@ PROGRAMS = {
     "plot_validation": module("plot_validation"),
     "aem-prequalify": script("aem-prequalify"),
     "operating_table": module("reserves.operating_table"),
+    "portfolio": module("reserves.portfolio"),
     "aem-study": script("aem-study"),
     "aem-identify": script("aem-identify"),
     "aem-run": script("aem-run"),
@@ -58,11 +62,35 @@ PROGRAMS = {
 OUT = ["--out", "{out}"]
 
 
-def case(command, kind, argv, says, status=2, near=None):
-    """One row: `command` given `argv` (templates over the `inputs` fixture's paths) is refused
-    with `status` and one line that contains each of `says` and, if `near`, "did you mean" it.
+def case(command, kind, argv, says, status=2, near=None, env=None, unsaid=()):
+    """One row: `command` given `argv` (templates over the `inputs` fixture's paths), and `env`
+    in its environment, is refused with `status` and one line that contains each of `says`,
+    none of `unsaid` and, if `near`, "did you mean" it.
     """
-    return pytest.param(command, argv, status, says, near, id=f"{command}:{kind}")
+    return pytest.param(command, argv, status, says, near, env or {}, unsaid, id=f"{command}:{kind}")
+
+
+def aem_fmu_cases(command, *argv):
+    """The environment variable AEM_FMU naming no file, or a text file, with no --fmu given:
+    the line blames AEM_FMU, not --fmu."""
+    return [
+        case(
+            command,
+            "aem-fmu-missing",
+            list(argv),
+            ["AEM_FMU", "/no/such.fmu", "no such FMU"],
+            env={"AEM_FMU": "/no/such.fmu"},
+            unsaid=["--fmu"],
+        ),
+        case(
+            command,
+            "aem-fmu-text-file",
+            list(argv),
+            ["AEM_FMU", "{text_fmu}", "is not an FMU"],
+            env={"AEM_FMU": "{text_fmu}"},
+            unsaid=["--fmu"],
+        ),
+    ]
 
 
 def fmu_cases(command, *extra):
@@ -89,6 +117,7 @@ def out_file_case(command, status=2, *extra):
 TABLE = [
     # --- examples.step_schedule: --fmu, --out only
     *fmu_cases("step_schedule"),
+    *aem_fmu_cases("step_schedule", *OUT),
     case("step_schedule", "misspelled-option", ["--fum", "x", *OUT], ["unknown option --fum"], near="--fmu"),
     out_file_case("step_schedule"),
     # --- examples.cold_start: --fmu, --out only
@@ -126,6 +155,9 @@ TABLE = [
     case("wind_hub", "hours-0", ["--hours", "0", *OUT], ["--hours", "positive"]),
     case("wind_hub", "duration-0", ["--duration", "0", *OUT], ["--duration", "positive"]),
     case("wind_hub", "duration-negative", ["--duration", "-5", *OUT], ["--duration", "positive"]),
+    # the hub runs whole 1 s steps: 10.5 s is not run as 10 s
+    case("wind_hub", "duration-not-whole-steps", ["--duration", "10.5", *OUT], ["--duration", "10.5 s", "whole"]),
+    case("wind_hub", "hours-not-whole-steps", ["--hours", "0.0031", *OUT], ["--hours", "11.16 s", "whole"]),
     case("wind_hub", "misspelled-option", ["--duraton", "5", *OUT], ["unknown option --duraton"], near="--duration"),
     out_file_case("wind_hub"),
     # --- examples.grid_cosim
@@ -174,6 +206,13 @@ TABLE = [
     case("plot_validation", "csv-missing", ["/no/such.csv", "{out}/validation.png"], ["csv", "/no/such.csv"]),
     case(
         "plot_validation",
+        "csv-of-another-kind",
+        ["{file}", "{out}/validation.png"],
+        ["csv", "{file}", "current_measured", "compared", "aem-identify validate --csv"],
+        unsaid=["KeyError"],
+    ),
+    case(
+        "plot_validation",
         "misspelled-option",
         ["--dbug", "{file}", "{out}/validation.png"],
         ["unknown option --dbug"],
@@ -181,6 +220,7 @@ TABLE = [
     ),
     # --- aem-prequalify
     *fmu_cases("aem-prequalify"),
+    *aem_fmu_cases("aem-prequalify", *OUT),
     case("aem-prequalify", "modules-0", ["--modules", "0", *OUT], ["--modules", "positive"]),
     case("aem-prequalify", "modules-negative", ["--modules", "-1000", *OUT], ["--modules", "positive"]),
     case("aem-prequalify", "dispatch-unknown", ["--dispatch", "eqaul", *OUT], ["--dispatch", "'eqaul'"], near="equal"),
@@ -205,11 +245,38 @@ TABLE = [
         near="both",
     ),
     case("aem-prequalify", "dt-0", ["--dt", "0", *OUT], ["--dt", "positive"]),
-    case("aem-prequalify", "jobs-0", ["--jobs", "0", *OUT], ["--jobs", "positive"]),
+    case("aem-prequalify", "workers-0", ["--workers", "0", *OUT], ["--workers", "positive"]),
+    # --jobs, the name before --workers, is still taken (and its value checked), but not suggested
+    case("aem-prequalify", "jobs-0-the-old-spelling", ["--jobs", "0", *OUT], ["--jobs", "positive"]),
+    case(
+        "aem-prequalify", "misspelled-workers", ["--wrokers", "2", *OUT], ["unknown option --wrokers"], near="--workers"
+    ),
+    case("aem-prequalify", "misspelled-jobs", ["--jbos", "2", *OUT], ["unknown option --jbos"], unsaid=["--jobs"]),
+    # the product names in any case: the refusal is --dt's, after --products was taken
+    case("aem-prequalify", "products-in-any-case", ["--products", "fcr-d UP,afrr up", "--dt", "0", *OUT], ["--dt"]),
+    case(
+        "aem-prequalify",
+        "products-near-miss-in-another-case",
+        ["--products", "fcr-d upp", *OUT],
+        ["--products", "'fcr-d upp'"],
+        near="FCR-D up",
+    ),
+    # equal dispatch, the default, cannot hold 50 %: sequential dispatch is what is wanted
+    case(
+        "aem-prequalify",
+        "optimise-dispatch-baseline-below-equal-dispatch",
+        ["--modules", "10", "--optimise-dispatch", "--baseline", "50", *OUT],
+        ["--baseline", "50 %", "equal dispatch", "give --dispatch sequential"],
+    ),
     case(
         "aem-prequalify", "misspelled-option", ["--modulse", "10", *OUT], ["unknown option --modulse"], near="--modules"
     ),
     out_file_case("aem-prequalify"),
+    # --- reserves.operating_table, reserves.portfolio: --workers as aem-prequalify's
+    case("operating_table", "workers-0", ["--workers", "0", *OUT], ["--workers", "positive"]),
+    case("operating_table", "jobs-0-the-old-spelling", ["--jobs", "0", *OUT], ["--jobs", "positive"]),
+    case("portfolio", "workers-0", ["--workers", "0", *OUT], ["--workers", "positive"]),
+    case("portfolio", "jobs-0-the-old-spelling", ["--jobs", "0", *OUT], ["--jobs", "positive"]),
     # --- aem-study STUDY.toml
     case(
         "aem-study",
@@ -347,11 +414,27 @@ TABLE = [
     ),
     case(
         "aem-run",
-        "param-misspelled",
-        ["--reference", "{reference}", "--step", "1", "--param", "nModlues=10"],
-        ["--param", "nModlues"],
+        "parameter-misspelled",
+        ["--reference", "{reference}", "--step", "1", "--parameter", "nModlues=10"],
+        ["--parameter", "nModlues"],
         near="nModules",
     ),
+    # --param, the name before --parameter (aem-study's workers give it), is still taken
+    case(
+        "aem-run",
+        "param-the-old-spelling-misspelled",
+        ["--reference", "{reference}", "--step", "1", "--param", "nModlues=10"],
+        ["--parameter", "nModlues"],
+        near="nModules",
+    ),
+    case(
+        "aem-run",
+        "misspelled-parameter-option",
+        ["--reference", "{reference}", "--step", "1", "--paramter", "nModules=10"],
+        ["unknown argument --paramter"],
+        near="--parameter",
+    ),
+    *aem_fmu_cases("aem-run", "--reference", "{reference}", "--step", "1"),
 ]
 
 STUDY = '[study]\ntitle = "command line"\nfmu = "{fmu}"\nhorizon = "10 s"\nstep = "1 s"\n'
@@ -416,8 +499,9 @@ def contents(folder):
     }
 
 
-def run(argv, timeout=60):
-    return subprocess.run([str(a) for a in argv], cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+def run(argv, timeout=60, env=None):
+    env = {**os.environ, **env} if env else None
+    return subprocess.run([str(a) for a in argv], cwd=ROOT, capture_output=True, text=True, timeout=timeout, env=env)
 
 
 def one_line(done, program):
@@ -430,17 +514,22 @@ def one_line(done, program):
     return lines[0], shown
 
 
-@pytest.mark.parametrize("command, argv, status, says, near", TABLE)
-def test_a_bad_argument_is_one_line_before_any_work(request, tmp_path, inputs, command, argv, status, says, near):
+@pytest.mark.parametrize("command, argv, status, says, near, env, unsaid", TABLE)
+def test_a_bad_argument_is_one_line_before_any_work(
+    request, tmp_path, inputs, command, argv, status, says, near, env, unsaid
+):
     if any("{campaign}" in a for a in argv):
         inputs = {**inputs, "campaign": request.getfixturevalue("campaign")}
     before = contents(tmp_path)
     prefix, program = PROGRAMS[command]
-    done = run([*prefix, *(a.format(**inputs) for a in argv)])
+    env = {name: value.format(**inputs) for name, value in env.items()}
+    done = run([*prefix, *(a.format(**inputs) for a in argv)], env=env)
     line, shown = one_line(done, program)
     assert done.returncode == status, shown
     for words in says:
         assert words.format(**inputs) in line, (words, line)
+    for words in unsaid:
+        assert words.format(**inputs) not in line, (words, line)
     if near:
         assert re.search(rf"did you mean '?{re.escape(near)}'?\?", line), (near, line)
     assert contents(tmp_path) == before, "result files were written"
@@ -559,3 +648,112 @@ def test_a_failure_during_the_work_is_one_line_and_debug_shows_the_traceback(tmp
 
     debug = run([*argv, "--debug"])
     assert debug.returncode == 1 and "Traceback (most recent call last)" in debug.stderr, debug.stderr
+
+
+# --- what a command answers besides its work -------------------------------------------------------
+
+CARGO_VERSION = tomllib.loads((ROOT / "Cargo.toml").read_text())["workspace"]["package"]["version"]
+
+
+@pytest.mark.parametrize(
+    "command, name",
+    [
+        ("aem-run", "aem-run"),
+        ("aem-identify", "aem-identify"),
+        ("aem-prequalify", "aem-prequalify"),
+        ("operating_table", "python -m aem_electrolyser.reserves.operating_table"),
+        ("portfolio", "python -m aem_electrolyser.reserves.portfolio"),
+    ],
+)
+def test_a_command_tells_its_version(command, name):
+    """`--version`: the program and the workspace's version (the package's, the FMU's), status 0."""
+    prefix, _ = PROGRAMS[command]
+    done = run([*prefix, "--version"], env={"AEM_FMU": "/no/such.fmu"})  # no FMU needed
+    assert done.returncode == 0 and done.stderr == "", done.stderr
+    assert done.stdout.strip() == f"{name} {CARGO_VERSION}"
+    assert aem_electrolyser.__version__ == CARGO_VERSION
+
+
+#: Makes the modules of an extra uninstallable in a fresh interpreter, as in an installation
+#: without the extra (extras.missing finds them missing; importing one fails), then runs the
+#: command's entry point with the arguments given.
+WITHOUT = """
+import importlib.abc, sys
+BLOCKED = {blocked!r}
+class Blocker(importlib.abc.MetaPathFinder):
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] in BLOCKED:
+            raise ModuleNotFoundError(f"No module named {{name!r}}", name=name)
+sys.meta_path.insert(0, Blocker())
+sys.argv = [{command!r}, *{argv!r}]
+from aem_electrolyser.commands import {entry}
+{entry}()
+"""
+
+#: command -> (its entry point in aem_electrolyser.commands, the modules of its extra that are
+#: not dependencies of the package itself)
+ENTRY_POINTS = {
+    "aem-prequalify": ("prequalify", ["matplotlib"]),
+    "aem-study": ("study", ["distributed", "dask", "pyarrow", "pandas", "matplotlib"]),
+}
+
+
+def without_extra(command, *argv):
+    entry, blocked = ENTRY_POINTS[command]
+    code = WITHOUT.format(blocked=blocked, command=command, argv=list(argv), entry=entry)
+    return run([sys.executable, "-c", code])
+
+
+@pytest.mark.parametrize("command", ENTRY_POINTS)
+def test_help_needs_no_extra(command):
+    """--help is shown without the command's extra (its parser imports none of its packages);
+    the command itself still ends with the extra's one line."""
+    done = without_extra(command, "--help")
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    assert done.stdout.startswith(f"usage: {command}"), done.stdout
+    work = without_extra(command, "--out", "/no/such/folder")
+    assert work.returncode == 1 and "Traceback" not in work.stderr, work.stderr
+    assert work.stderr.startswith(f"{command} needs the ["), work.stderr
+
+
+def test_prequalify_version_needs_no_extra():
+    done = without_extra("aem-prequalify", "--version")
+    assert done.returncode == 0 and done.stdout.strip() == f"aem-prequalify {CARGO_VERSION}", done.stderr
+
+
+def test_hub_driver_takes_enumerations_by_the_names_the_model_description_declares(fmu_path):
+    """HubFMU(dispatch="sequential"), as study files take it; a near miss is one line."""
+    from aem_electrolyser.hub.driver import HubFMU
+
+    hub = HubFMU(fmu_path, nModules=10, dispatch="sequential", belowMinimum="standby")
+    try:
+        hub.initialize()
+        assert hub.get("dispatch", "belowMinimum") == [2, 1]
+    finally:
+        hub.close()
+    with pytest.raises(ValueError, match=r"dispatch = 'sequentail': not one of equal, .*did you mean 'sequential'\?"):
+        HubFMU(fmu_path, nModules=10, dispatch="sequentail")
+
+
+def readme_snippet():
+    """The README's "Use the FMU" example."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    return re.search(r"## Use the FMU\s+```python\n(.*?)```", text, re.S).group(1)
+
+
+def test_the_readme_example_runs_without_warnings(capfd, fmu_path):
+    """The README's first example prints nothing (fmpy warns of every input the input array
+    leaves out), and simulates what the setpoint alone gives."""
+    from fmpy import simulate_fmu
+
+    names = {}
+    exec(readme_snippet(), names)  # noqa: S102 - the README's own example
+    printed = capfd.readouterr()
+    assert printed.out == "" and printed.err == "", printed
+    steps = np.array([(0, 100.0), (60, 100.0), (60, 60.0), (600, 60.0)], dtype=[("time", float), ("setpoint", float)])
+    alone = simulate_fmu(
+        str(fmu_path), stop_time=600, output_interval=1, input=steps, output=["current", "voltage", "power", "h2Flow"]
+    )
+    capfd.readouterr()
+    for name in ("time", "current", "voltage", "power", "h2Flow"):
+        np.testing.assert_array_equal(names["result"][name], alone[name])
