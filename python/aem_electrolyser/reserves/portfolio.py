@@ -67,6 +67,13 @@ DEFAULT_PRICES = {"FCR-D up": 1.0, "FCR-D down": 1.0}
 #: sold too (NTR §3.1.2 Req. 1b).
 WITH_FCR_N = ("FCR-D up", "FCR-D down")
 
+#: The portfolio's scan of the reserve control's zero: neighbours at most 25 % apart (20 zeros
+#: over the paper's [τp1, τp2]), the best refined. Coarser than one product's search
+#: (optimise.RESOLUTION, 5 %): a configuration's value sums every product's capacity and has no
+#: bound that prunes, so each zero costs every product's bisection; a band of one product
+#: narrower than 25 % may fall between its zeros (aem-prequalify --optimise finds it).
+RESOLUTION = 1.25
+
 
 def prices(text):
     """{product name: price [€/(MW·h)]} from "name=price,name=price"; each product once, each
@@ -292,6 +299,8 @@ class Portfolio:
             min(t1, t2),
             max(t1, t2),
             known=(tau_zero,),
+            resolution=RESOLUTION,
+            count=1,
         )
         zero = control.best.zero if control.best.capacity > dispatch.capacity else tau_zero
         most = self.most_warm(base, n)

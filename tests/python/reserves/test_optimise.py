@@ -10,6 +10,7 @@ import pytest
 from aem_electrolyser.reserves import optimise
 
 LO, HI, RATED = 1.995, 113.568, 1e6
+TZ = 95.371
 STEP = 0.005 * RATED  # the bisection's resolution
 
 
@@ -196,3 +197,46 @@ def test_the_branch_and_bound_finds_the_band():
 
     found = optimise.search(lambda zs: [banded(z, BANDS) for z in zs], LO, HI, known=(95.371, HI), beats=beats)
     assert found.best.capacity == max(banded(z, BANDS) for z in optimise.grid(LO, HI, resolution=1.0005))
+
+
+@pytest.mark.slow
+def test_on_the_fmu_the_scan_sells_fcr_n_where_the_seven_point_grid_sold_nothing(fmu_path):
+    """FCR-N on an equal hub at 80 % (4 modules; an equal hub's percentages do not depend on its
+    size) passes only for zeros in a band around 40–50 s (the steady state fails below it,
+    stability above). The seven-point grid with one bracket, as the search was, sells nothing;
+    the scan finds the band, and what it reports is what a bisection at its zero sells."""
+    from aem_electrolyser.hub.runner import Hub, HubRunner
+    from aem_electrolyser.reserves import assess
+    from aem_electrolyser.reserves.bisection import failing
+    from aem_electrolyser.reserves.products import BY_NAME, window_bound
+
+    spec, runners = BY_NAME["FCR-N"], {}
+
+    def runner(z):
+        if z not in runners:
+            runners[z] = HubRunner(fmu_path, Hub(4, 1, 0, 0.8, False, (), 0.0 if z == TZ else z))
+        return runners[z]
+
+    def capacities(zs):
+        return [assess.largest(runner(z), spec, 0.1)[0].sellable for z in zs]
+
+    def beats(zs, floor):
+        out = []
+        for z in zs:
+            r = runner(z)
+            c = floor + 0.005 * r.rated_power
+            fits = c <= window_bound(spec, r.baseline, r.least_power, r.rated_power)
+            out.append(fits and not failing(assess.run_product(r, spec, c, 0.1).results, spec.use_reduction))
+        return out
+
+    try:
+        old = optimise.search(capacities, LO, HI, known=(TZ, HI), resolution=(HI / LO) ** (1 / 6), count=1)
+        new = optimise.search(capacities, LO, HI, known=(TZ, HI), beats=beats)
+        rated = runner(TZ).rated_power
+        assert old.best.capacity == 0.0
+        assert 40.0 < new.best.zero < 55.0
+        assert new.best.capacity > 0.15 * rated
+        assert capacities([new.best.zero]) == [new.best.capacity]
+    finally:
+        for r in runners.values():
+            r.close()

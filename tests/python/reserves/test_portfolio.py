@@ -129,8 +129,9 @@ def test_the_search_earns_at_least_every_count_warm_count_and_grid_zero_tried_on
         found.jobs = jobs
         best = found.best(base)[0]
         tau_zero, tau_1, tau_2 = found.taus
-        # Every 14th zero of the control search's scan (it tries them all) and plain droop.
-        zeros = sorted(set(optimise.grid(min(tau_1, tau_2), max(tau_1, tau_2))[::14]) | {tau_zero})
+        # Every third zero of the control search's scan (it tries them all) and plain droop.
+        scan = optimise.grid(min(tau_1, tau_2), max(tau_1, tau_2), resolution=portfolio_command.RESOLUTION)
+        zeros = sorted(set(scan[::3]) | {tau_zero})
         counts = dispatch_search.feasible_counts(N, base * found.rated, found.curve)
         every = found.configurations(
             [
