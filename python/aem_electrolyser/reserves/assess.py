@@ -263,4 +263,3 @@ def section(product: Product, result: CapacityResult, at: Run, above: Run = None
         margins=margins.of_run(results, run.capacity, result.upper, result.rated_power) if run is not None else [],
         readings=list(run.readings) if run is not None else [],
     )
-
