@@ -71,6 +71,10 @@ def of_requirement(r: Requirement) -> Optional[Margin]:
     if r.high is not None:
         gaps.append(r.high - r.measured)
     d = min(gaps)
+    if r.status == PASS and d == 0.0 and 0.0 in (r.low, r.high):
+        # Met with equality by construction (nothing falls below where it stood: the lowest
+        # power less itself): no distance to report.
+        return None
     return Margin(r.name, d, r.limit_unit or r.unit, d / scale(r))
 
 

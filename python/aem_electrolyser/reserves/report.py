@@ -300,9 +300,16 @@ def write_csv(path, sections: Sequence[Section], rated_power: float) -> Path:
     return path
 
 
+def _number(x: float, digits: int) -> str:
+    """A whole number as such (capacities in whole watts, the same figure as every file), any
+    other to `digits` significant digits."""
+    return f"{x:.0f}" if x.is_integer() else f"{x:.{digits}g}"
+
+
 def write_rows(stem, rows: Sequence[dict], leave_out: Sequence[str] = (), digits: int = 6) -> None:
     """<stem>.json with every row whole, and <stem>.csv with its columns but `leave_out` (lists
-    and free text): numbers to `digits` significant digits, None as an empty cell."""
+    and free text): whole numbers whole, others to `digits` significant digits, None as an
+    empty cell."""
     stem = Path(stem)
     stem.with_suffix(".json").write_text(json.dumps(rows, indent=2) + "\n")
     keys = [k for k in rows[0] if k not in leave_out]
@@ -312,7 +319,7 @@ def write_rows(stem, rows: Sequence[dict], leave_out: Sequence[str] = (), digits
         for row in rows:
             w.writerow(
                 [
-                    "" if row[k] is None else f"{row[k]:.{digits}g}" if isinstance(row[k], float) else row[k]
+                    "" if row[k] is None else _number(row[k], digits) if isinstance(row[k], float) else row[k]
                     for k in keys
                 ]
             )
