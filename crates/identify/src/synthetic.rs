@@ -68,6 +68,9 @@ pub struct CampaignSpec {
     pub seed: u64,
     /// Running time per day [h].
     pub running_hours: f64,
+    /// Running time of day d [h]: `run_hours[d % len]`, where given (empty: `running_hours`
+    /// every day), for runs of several lengths.
+    pub run_hours: Vec<f64>,
     /// Unix time of the first day's first row [s]; later days start 24 h apart.
     pub start_time: f64,
     /// Current sensor noise (standard deviation) [A].
@@ -180,6 +183,15 @@ impl Default for SyntheticThermal {
 }
 
 impl CampaignSpec {
+    /// The running time of day `index` [s] (whole seconds).
+    pub fn running_seconds(&self, index: usize) -> usize {
+        let hours = match self.run_hours.len() {
+            0 => self.running_hours,
+            n => self.run_hours[index % n],
+        };
+        (hours * 3600.0) as usize
+    }
+
     /// Known parameters clearly different from the paper's Table I.
     pub fn test_truth() -> Parameters {
         Parameters {
@@ -206,6 +218,7 @@ impl Default for CampaignSpec {
             truth: CampaignSpec::test_truth(),
             seed: 2026,
             running_hours: 30_000.0 / 3600.0 - 600.0 / 3600.0,
+            run_hours: Vec::new(),
             // 2025-10-06T06:00:00Z
             start_time: 1_759_730_400.0,
             current_noise: 0.15,
@@ -272,7 +285,7 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
     let p = spec.truth;
     // Setpoint schedule: (rows, setpoint) levels.
     let mut schedule: Vec<(usize, f64)> = vec![(OFF_SECONDS, 0.0)];
-    let running = (spec.running_hours * 3600.0) as usize;
+    let running = spec.running_seconds(index);
     let grid: Vec<f64> = (0..=8).map(|i| 60.0 + 5.0 * f64::from(i)).collect();
     let mut total = 0;
     let mut level = grid[rng.below(grid.len())];
@@ -313,10 +326,11 @@ pub fn generate_day(spec: &CampaignSpec, index: usize) -> Result<Day, ParameterE
     let before = (OFF_SECONDS - 1) as f64;
     let mut drift = DriftState::default();
     if let Some(dr) = &spec.drift {
-        for _ in 0..index {
+        for earlier in 0..index {
+            let running = spec.running_seconds(earlier) as f64;
             drift = dr.rest(drift, before);
-            drift = dr.run(drift, running as f64, true);
-            drift = dr.rest(drift, 86_400.0 - before - running as f64);
+            drift = dr.run(drift, running, true);
+            drift = dr.rest(drift, 86_400.0 - before - running);
         }
     }
     let mut day = Day::default();
