@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Quick start, command 2: every test. Installs everything (scripts/setup.sh), lints the Python,
+# Quick start, command 2: every test. Installs everything (scripts/setup.sh), lints the Python
+# (ruff check, ruff format --check) and checks the Rust formatting,
 # builds the release bundle into dist/ (packaging/release.py: the workspace for linux64 against
 # glibc 2.17 and for win64, the two-platform FMU, both wheels, the sdist, the plain aem-identify
 # downloads, SHA256SUMS), then runs the Rust tests (model, C ABI in process, the packaged .fmu
@@ -28,6 +29,7 @@ phase() {
 }
 phase bash scripts/setup.sh
 phase .venv/bin/ruff check --quiet python tests benches packaging fuzz scripts
+phase .venv/bin/ruff format --check --quiet python tests benches packaging fuzz scripts
 phase cargo fmt --check
 phase .venv/bin/python packaging/release.py
 phase .venv/bin/python packaging/platforms.py test
