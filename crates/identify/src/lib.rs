@@ -263,15 +263,11 @@ pub fn fit_module(log: &ModuleLog, options: &FitOptions) -> ModuleFit {
         hydrogen::fit_hydrogen(log, options.polarisation.running_current, options.cells).into();
     lap("hydrogen", &mut timings);
 
-    let temperature: Stage<TemperatureFit> =
-        temperature::fit_temperature_dependence(log, &options.temperature).into();
-    lap("temperature dependence", &mut timings);
-
     let heat: Stage<HeatFit> = heat::fit_heat_balance(log, &options.heat).into();
     lap("heat balance", &mut timings);
 
-    let drift: Stage<DriftFit> = drift::fit_drift(log, &options.polarisation).into();
-    lap("voltage drift", &mut timings);
+    let (temperature, drift) = fit_temperature_and_drift(log, options);
+    lap("temperature dependence and voltage drift", &mut timings);
 
     let mut parameters = base;
     let mut estimates = BTreeMap::new();
@@ -320,6 +316,38 @@ pub fn fit_module(log: &ModuleLog, options: &FitOptions) -> ModuleFit {
         estimates,
         timings,
         poorly_determined: options.poorly_determined,
+    }
+}
+
+/// The voltage's temperature terms ([`temperature`]) and its drift ([`drift`]), which a log
+/// may carry both: a warm-up early in a run, while the reversible drift builds up, is taken
+/// for temperature by a fit of the temperature terms alone. The temperature stage is fitted
+/// with the drift's terms wherever the log shows a drift
+/// ([`drift::fit_temperature_with_drift`]), and the drift stage then again with the
+/// temperature terms so found taken out (the joint fit does not depend on the drift stage's
+/// result but for its start, so this alternation has converged); where the log shows none,
+/// both stand as fitted alone.
+pub fn fit_temperature_and_drift(
+    log: &ModuleLog,
+    options: &FitOptions,
+) -> (Stage<TemperatureFit>, Stage<DriftFit>) {
+    let plain = temperature::fit_temperature_dependence(log, &options.temperature);
+    let drift = drift::fit_drift(log, &options.polarisation);
+    let Ok(plain) = plain else {
+        return (plain.into(), drift.into());
+    };
+    match drift::fit_temperature_with_drift(log, &options.temperature, &plain, drift.as_ref().ok())
+    {
+        Ok(None) => (Stage::Done(plain), drift.into()),
+        Ok(Some(joint)) => {
+            let (kv, kr) = (
+                joint.voltage_coefficient.value,
+                joint.resistance_coefficient.map_or(0.0, |e| e.value),
+            );
+            let refit = drift::fit_drift_without(log, &options.polarisation, (kv, kr));
+            (Stage::Done(joint), refit.into())
+        }
+        Err(why) => (Stage::Skipped(why), drift.into()),
     }
 }
 

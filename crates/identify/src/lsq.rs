@@ -114,7 +114,10 @@ pub fn minimize<R: Residuals>(
             levenberg_marquardt::TerminationReason::NoImprovementPossible(_)
         )
     {
-        return Err(format!("optimiser stopped: {termination}"));
+        return Err(format!(
+            "the optimiser stopped: {}",
+            describe(&report.termination)
+        ));
     }
     let theta: Vec<f64> = problem.theta.iter().copied().collect();
     // The adapter holds the residuals at its current θ, the optimum.
@@ -146,6 +149,20 @@ pub fn minimize<R: Residuals>(
         evaluations: report.number_of_evaluations,
         termination,
     })
+}
+
+/// The optimiser's reason to stop early, as a sentence.
+fn describe(reason: &levenberg_marquardt::TerminationReason) -> String {
+    use levenberg_marquardt::TerminationReason as T;
+    match reason {
+        T::User(what) => format!("the {what} could not be evaluated at a point it tried"),
+        T::Numerical(what) => format!("the {what} became infinite or undefined"),
+        T::LostPatience => "it ran out of evaluations".into(),
+        T::NoParameters => "there are no parameters".into(),
+        T::NoResiduals => "there are no residuals".into(),
+        T::WrongDimensions(what) => format!("the {what} had the wrong dimensions"),
+        other => format!("{other:?}"),
+    }
 }
 
 /// Covariance of θ at the optimum from the Jacobian J and residuals r.

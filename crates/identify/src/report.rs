@@ -570,7 +570,7 @@ pub fn statistics_json(fit: &ModuleFit) -> Value {
             "ohmicResistance": t.ohmic_resistance.as_ref().map_or(Value::Null, |e| estimate_json(e, "Ohm")),
             "rmseV": num(t.rmse), "points": t.points,
             "temperatureRangeDegC": [t.temperature_range.0, t.temperature_range.1],
-            "temperatureSpreadK": num(t.temperature_spread), "notes": t.notes,
+            "temperatureSpreadK": num(t.temperature_spread), "fittedWithDrift": t.drift_terms, "notes": t.notes,
         })),
         "heat": stage_json(&fit.heat, |h| json!({
             "heatCapacity": estimate_json(&h.heat_capacity, "J/K"),

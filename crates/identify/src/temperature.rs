@@ -65,6 +65,9 @@ pub struct TemperatureFit {
     /// Their temperature range [°C] and standard deviation [K].
     pub temperature_range: (f64, f64),
     pub temperature_spread: f64,
+    /// Whether the voltage drift was fitted with the temperature terms
+    /// ([`crate::drift::fit_temperature_with_drift`]).
+    pub drift_terms: bool,
     /// What the fit could not do, for the report.
     pub notes: Vec<String>,
 }
@@ -169,6 +172,7 @@ pub fn fit_temperature_dependence(
         points: n,
         temperature_range: (lo + options.nominal, hi + options.nominal),
         temperature_spread: spread,
+        drift_terms: false,
         notes,
     })
 }

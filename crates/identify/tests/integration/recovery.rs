@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use aem_identify::read::{self, BadRow, ReadOptions};
 use aem_identify::synthetic::{self, CampaignSpec, CsvOptions, Injected};
 use aem_identify::validate::{self, ValidateOptions};
-use aem_identify::{self as identify, FitOptions, Stage};
+use aem_identify::{self as identify, temperature, FitOptions, Stage};
 
 /// Accuracy targets (relative unless stated).
 const GAIN: f64 = 0.005;
@@ -494,30 +494,34 @@ fn campaign_log(spec: &CampaignSpec, days: usize) -> read::ModuleLog {
 
 /// kV and kR where the voltage also drifts: warm-ups happen early in each run, while the
 /// reversible drift is still building, so a fit of the temperature terms alone takes part of
-/// the build-up for temperature. Runs of 2.5 to 11 h, and runs all short or all long: the
-/// 95 % intervals hold the truth and the estimates are within a few percent.
+/// the build-up for temperature (kV +0.020, −0.138 and −0.070 V/K on these logs against
+/// −0.062). Runs of 2.5 to 11 h, runs all short and runs all long, refill dips late in them:
+/// the 95 % intervals hold the truth, the estimates within 5 % (kV) and 10 % (kR), and the
+/// drift stage's notes name a cause only where it holds.
 #[test]
 fn the_temperature_coefficients_are_recovered_beside_a_drift() {
-    for (run_hours, seed) in [
-        (&[2.5, 11.0, 5.0, 8.0, 3.5][..], 7),
-        (&[3.0, 2.5, 3.5, 2.5, 3.0][..], 8),
-        (&[11.0, 10.0, 12.0, 11.0, 10.0][..], 9),
+    for (run_hours, seed, alike) in [
+        (&[2.5, 11.0, 5.0, 8.0, 3.5][..], 7, false),
+        (&[3.0, 2.5, 3.5, 2.5, 3.0][..], 8, true),
+        (&[11.0, 10.0, 12.0, 11.0, 10.0][..], 9, true),
     ] {
         let spec = temperature_and_drift(run_hours, seed);
         let log = campaign_log(&spec, 5);
-        let fit = identify::fit_module(&log, &FitOptions::default());
-        let Stage::Done(t) = &fit.temperature else {
-            panic!("{run_hours:?}: temperature stage skipped: {:?}", fit.temperature);
+        let (temperature, drift) =
+            identify::fit_temperature_and_drift(&log, &FitOptions::default());
+        let Stage::Done(t) = &temperature else {
+            panic!("{run_hours:?}: temperature stage skipped: {temperature:?}");
         };
         let kv = t.voltage_coefficient;
         let kr = t.resistance_coefficient.expect("kR identified");
         println!("{run_hours:?}: kV {kv:?}, kR {kr:?}, notes {:?}", t.notes);
+        assert!(t.drift_terms, "{t:?}");
         for (name, e, truth, tolerance) in [
-            ("kV", kv, -spec.temperature_coefficient, 0.03),
+            ("kV", kv, -spec.temperature_coefficient, 0.05),
             ("kR", kr, spec.resistance_temperature_coefficient, 0.1),
         ] {
             assert!(
-                (e.value - truth).abs() <= 1.96 * e.standard_error,
+                (e.value - truth).abs() <= temperature::Z95 * e.standard_error,
                 "{run_hours:?}: {name} {e:?} vs {truth}: the 95 % interval misses the truth"
             );
             assert!(
@@ -525,5 +529,54 @@ fn the_temperature_coefficients_are_recovered_beside_a_drift() {
                 "{run_hours:?}: {name} {e:?} vs {truth}"
             );
         }
+        // The drift stage, with the temperature terms taken out, still finds the drift.
+        let Stage::Done(d) = &drift else {
+            panic!("{run_hours:?}: drift stage skipped: {drift:?}");
+        };
+        let truth = spec.drift.unwrap();
+        println!(
+            "{run_hours:?}: A {:?}, τb {:?}, notes {:?}",
+            d.amplitude, d.build_up_time, d.notes
+        );
+        assert!(
+            (d.amplitude.value - truth.amplitude).abs() < 4.0 * d.amplitude.standard_error,
+            "{d:?}"
+        );
+        if !alike {
+            assert!(
+                d.notes.iter().all(|n| !n.contains("alike")),
+                "{run_hours:?}: {:?}",
+                d.notes
+            );
+        }
+    }
+}
+
+/// A warm-up that follows the drift's build-up in every run (both with a time constant of
+/// 400 s, the drift recovering fully at rest) and no other temperature change: the two cannot
+/// be told apart, and the stage says so instead of giving kV.
+#[test]
+fn a_temperature_that_moves_with_the_drift_is_said_to_be_inseparable() {
+    let spec = CampaignSpec {
+        dips_per_day: 0,
+        resistance_temperature_coefficient: -0.0012,
+        // Runs of an hour: the warm-up is a good part of each.
+        run_hours: vec![1.0],
+        drift: Some(synthetic::SyntheticDrift {
+            amplitude: 0.35,
+            build_up_time: 400.0,
+            recovery_time: 600.0,
+            ..synthetic::SyntheticDrift::default()
+        }),
+        ..CampaignSpec::default()
+    };
+    let log = campaign_log(&spec, 4);
+    let (temperature, _) = identify::fit_temperature_and_drift(&log, &FitOptions::default());
+    match &temperature {
+        Stage::Skipped(why) => assert!(
+            why.contains("not identifiable") && why.contains("move together"),
+            "{why}"
+        ),
+        Stage::Done(t) => panic!("fitted {t:?}"),
     }
 }
