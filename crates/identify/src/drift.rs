@@ -828,6 +828,14 @@ pub fn fit_temperature_with_drift(
         return Ok(Some(result(&estimate, kv, fit.rmse(), notes)));
     }
     if rise_evident {
+        // No reversible drift seen, but a drift is: one that moved with the temperature would
+        // hide in kV, unseen. Where some build-up time makes g follow the temperature, the two
+        // cannot be told apart.
+        if let Some((tb, correlation)) = hidden_build_up(&w, terms, fixed_recovery) {
+            return Err(format!(
+                "not identifiable from this log: the temperature and the voltage drift's build-up move together (a reversible drift building up in {tb:.0} s would follow the temperature, correlation {correlation:.3} of their regressors over {n} samples; the log shows a drift per running hour and per start), so kV and kR cannot be told from the reversible drift; temperature changes late in long runs (refills, a cooling setpoint) part them"
+            ));
+        }
         let s2 = m1.rss / p(k1);
         let estimate = |k: usize| Estimate {
             value: m1.theta[k],
@@ -845,6 +853,33 @@ pub fn fit_temperature_with_drift(
         )));
     }
     Ok(None)
+}
+
+/// A build-up time (τb, over a grid fine enough that a neighbour's correlation exceeds 0.995,
+/// and τr over the coarse grid) at which the reversible drift's g follows the temperature on
+/// the samples: (τb, correlation) at the largest |correlation| where it reaches
+/// [`MAX_REGRESSOR_CORRELATION`].
+fn hidden_build_up(w: &Walk, terms: Terms, fixed_recovery: f64) -> Option<(f64, f64)> {
+    const FINE: usize = 24;
+    let (lo, hi) = (GRID_RANGE.0.ln(), GRID_RANGE.1.ln());
+    let recovery: Vec<f64> = if terms.recovery {
+        (0..GRID).map(grid).collect()
+    } else {
+        vec![fixed_recovery]
+    };
+    let mut worst: Option<(f64, f64)> = None;
+    for k in 0..FINE {
+        let tb = (lo + (hi - lo) * k as f64 / (FINE - 1) as f64).exp();
+        for &tr in &recovery {
+            let g = unit_drift(w, tb, tr);
+            let c = correlation(w.used.iter().map(|u| (u.5, g[u.0][0])));
+            if c.abs() >= MAX_REGRESSOR_CORRELATION && worst.is_none_or(|(_, b)| c.abs() > b.abs())
+            {
+                worst = Some((tb, c));
+            }
+        }
+    }
+    worst
 }
 
 /// Pearson correlation of the pairs (NaN where either does not vary).
