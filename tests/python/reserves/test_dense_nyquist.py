@@ -141,3 +141,26 @@ def test_at_the_test_amplitude_the_curve_dips_between_the_prescribed_periods(fmu
     assert independent < REQUIRED
     assert run.dense.bound <= independent + 1e-3
     assert tool[0] == pytest.approx(independent, abs=1e-4)
+
+
+def test_a_hub_that_stops_and_restarts_modules_reaches_the_same_curve_with_a_longer_lead_in(fmu_path):
+    """A sequential hub stops modules as an upward activation lowers its power and restarts them
+    (warm, 30 s) as it rises: its response depends on where in its history a test starts. Each
+    sine test starts from the hub at rest at the baseline; the lead-in (at least three of the
+    slowest time constants) brings it to the periodic steady state: a lead-in three times as long,
+    or a longer rest before the sine, moves the distance by far less than the dense curve's
+    tolerance."""
+    runner = HubRunner(fmu_path, Hub(10, 2, 1, 0.5, False, (), 77.0))
+    try:
+        spec = BY_NAME["FCR-D up"]
+        capacity = 0.1 * runner.rated_power
+        parameters = {**spec.parameters, spec.capacity_parameter: capacity}
+        lead = assess.LEAD_IN_TIME_CONSTANTS * TP2
+        for period in (10.0, 15.0, 25.0):
+            usual = assess.sine(runner, "FCR-D up", period, capacity, parameters, 0.1)
+            longer = assess.sine(runner, "FCR-D up", period, capacity, parameters, 0.1, lead=3 * lead)
+            rested = assess.sine(runner, "FCR-D up", period, capacity, parameters, 0.1, settle=660.0)
+            d = fd.distances([usual, longer, rested], "FCR-D up")
+            assert abs(d[1] - d[0]) < fd.DENSE_TOLERANCE / 4 and abs(d[2] - d[0]) < fd.DENSE_TOLERANCE / 4, period
+    finally:
+        runner.close()
