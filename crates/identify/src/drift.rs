@@ -381,16 +381,15 @@ fn linear_fit(w: &Walk, terms: Terms, tau_b: f64, tau_r: f64) -> Option<(Vec<f64
     let k = 4 + usize::from(terms.starts) + terms.temperature;
     let fit = linear(w, k, |&(index, i, _, h, s, dt)| {
         let mut row = [0.0; MAX_COLUMNS];
-        let mut c = 0;
-        for x in [1.0, i, h]
-            .into_iter()
-            .chain(terms.starts.then_some(s))
-            .chain([g[index][0]])
-            .chain((terms.temperature >= 1).then_some(dt))
-            .chain((terms.temperature >= 2).then_some(dt * i))
-        {
-            row[c] = x;
-            c += 1;
+        for (slot, x) in row.iter_mut().zip(
+            [1.0, i, h]
+                .into_iter()
+                .chain(terms.starts.then_some(s))
+                .chain([g[index][0]])
+                .chain((terms.temperature >= 1).then_some(dt))
+                .chain((terms.temperature >= 2).then_some(dt * i)),
+        ) {
+            *slot = x;
         }
         row
     })?;
@@ -685,16 +684,15 @@ pub fn fit_temperature_with_drift(
     let plain_columns = |with_rise: bool| {
         move |&(_, i, _, h, s, dt): &(usize, f64, f64, f64, f64, f64)| {
             let mut row = [0.0; MAX_COLUMNS];
-            let mut c = 0;
-            for x in [1.0, i]
-                .into_iter()
-                .chain(with_rise.then_some(h))
-                .chain((with_rise && restarts).then_some(s))
-                .chain([dt])
-                .chain((temperature >= 2).then_some(dt * i))
-            {
-                row[c] = x;
-                c += 1;
+            for (slot, x) in row.iter_mut().zip(
+                [1.0, i]
+                    .into_iter()
+                    .chain(with_rise.then_some(h))
+                    .chain((with_rise && restarts).then_some(s))
+                    .chain([dt])
+                    .chain((temperature >= 2).then_some(dt * i)),
+            ) {
+                *slot = x;
             }
             row
         }
