@@ -30,17 +30,18 @@ current's transfer function K(τn s + 1)/((τp1 s + 1)(τp2 s + 1)) sits at τn 
 reserveFilterZero), anywhere in [τp1, τp2]; plain droop is τn = τz, reserveCompensation
 τn = τp2. `--filter-zero` assesses given zeros as further hubs. `--optimise` searches, per
 product and per dispatch and baseline, the zero that sells the most (aem_electrolyser.reserves.
-optimise: a grid over [τp1, τp2] holding τz and τp2, then a bracket shrunk by thirds; fixed
-evaluations, no random draw) and writes <out>/optimum.md, .csv and .json: the zero, the
-capacity against plain droop and compensation, the limiting requirement, every other
-requirement's margin at the optimum, and every zero tried; the optimum's report and plots are
+optimise: a scan of [τp1, τp2] every 5 %, τz and τp2 among the zeros, each bisected only where it
+passes a step above the best so far, then the three best maxima refined; no random draw) and
+writes <out>/optimum.md, .csv and .json: the zero, the capacity against plain droop and
+compensation, the limiting requirement, every margin at the optimum, whether the verdict holds
+under every reading of the rules, and every zero tried; the optimum's report and plots are
 <hub>_<product>_optimum.md and .png.
 
 The dispatch is the other lever: at a baseline B the hub can run any count n of modules that
 keeps each inside its window (from the fewest, sequential dispatch, to the most), each at B/n,
 the others idle (off: a cold start away; a module stopped during a test waits in warm standby). `--optimise-dispatch` searches, per product and baseline, the count
 that sells the most with plain droop (aem_electrolyser.reserves.dispatch_search: every count
-where there are few, else the same grid and bracket), run by the FMU as target dispatch
+where there are few, else the same scan and refinement), run by the FMU as target dispatch
 (dispatchTargetSetpoint at the setpoint that draws B/n), and writes <out>/dispatch_optimum.md,
 .csv and .json: the count, its target setpoint and capacity, against the fewest and the most
 modules.
@@ -50,6 +51,12 @@ instance the grid side (auxiliaryPower, supplyNoLoadLoss, supplyLossVoltage,
 supplyLossResistance, and gridSideReference = true: the baseline, the rated power and the
 requests are then grid power, and the power assessed is what the grid sees, hubAcPower; without
 it the stacks' hubPower) or the stack temperature (thermalModel = true).
+
+Req. 8 (Nyquist stability) is judged at the prescribed periods and on the unit's own curve
+(sine tests between them, refined until the verdict is certain); what is sold passes both.
+Every report gives each limit's margin and the verdict under the readings the rules leave open
+(steady-state window, interpolation, measurement filter); `--margin FRACTION` sells only what
+passes Req. 8 at 0.43·(0.95 + FRACTION) and under every reading.
 
 This is a model-based assessment of the test programme (Nordic FCR technical requirements
 v1.1 of 28 March 2025 and test programme, Fingrid FFR, SO GL Annex V), not a prequalification
