@@ -22,7 +22,8 @@ The search (deterministic, no random draw), one round of coordinate search: the 
 by aem-prequalify --optimise-dispatch's search, on V with plain droop, each count with no module
 warm and with the most the base power allows (their standby power must leave every running
 module at least its minimum; at most the modules not running), the better of the two; the zero
-in [τp1, τp2] by --optimise's search, on V at that count; then the modules held warm, 0, ¼, ½,
+in [τp1, τp2] by --optimise's search, on V at that count, scanned every 25 % (no bound prunes
+V, so every zero costs every product's bisection) with the best refined; then the modules held warm, 0, ¼, ½,
 ¾ or all of the most. Ties go to the fewest running modules, plain droop and the
 fewest warm modules. Against it, per baseline, plain droop with equal dispatch (where every
 module can run) and with sequential dispatch (the fewest modules), no module warm.
