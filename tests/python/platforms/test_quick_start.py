@@ -35,6 +35,11 @@ def pins() -> dict:
     return out
 
 
+def normal(name: str) -> str:
+    """A distribution's name as PEP 503 compares it (pip lists fmpy as FMPy)."""
+    return re.sub(r"[-_.]+", "-", name).lower()
+
+
 def test_requirements_hold_no_extras():
     """pip takes requirements.txt as the demo's constraints; a constraint with extras is refused."""
     with_extras = [name for name in pins() if "[" in name]
@@ -75,9 +80,9 @@ def test_demo_environment_from_an_empty_venv(tmp_path):
         text=True,
         check=True,
     ).stdout
-    installed = dict(line.split("==", 1) for line in listed.splitlines() if "==" in line)
-    wanted = pins()
-    for name in DEMO_PACKAGES:
+    installed = {normal(n): v for n, v in (line.split("==", 1) for line in listed.splitlines() if "==" in line)}
+    wanted = {normal(n): v for n, v in pins().items()}
+    for name in map(normal, DEMO_PACKAGES):
         assert installed.get(name) == wanted[name], f"{name}: {installed.get(name)} installed, {wanted[name]} pinned"
 
     # The demo's last command, in that environment, on the FMU the release step packaged.

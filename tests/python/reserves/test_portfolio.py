@@ -159,3 +159,34 @@ def test_a_bad_price_list_is_refused_before_any_work(prices, message, tmp_path):
     done = run(["-m", "aem_electrolyser.reserves.portfolio", "--prices", prices, "--out", tmp_path])
     assert done.returncode == 2 and message in done.stderr and "Traceback" not in done.stderr
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize(
+    "prices, dropped",
+    [
+        ({"FCR-N": 2.0, "FCR-D up": 3.0, "FCR-D down": 1.0}, ["FCR-D down"]),
+        ({"FCR-N": 0.5, "FCR-D up": 3.0, "FCR-D down": 30.0}, ["FCR-N"]),
+    ],
+    ids=["FCR-N kept", "FCR-N left out"],
+)
+def test_a_failed_combination_sells_what_is_worth_more(prices, dropped):
+    """FCR-N with upward FCR-D passes Req. 1b, with downward FCR-D fails (the combination test's
+    results given here, not run): the configuration sells FCR-N with upward FCR-D where that is
+    worth more than both FCR-D products, else both FCR-D products without FCR-N."""
+    from types import SimpleNamespace
+
+    from aem_electrolyser.reserves.requirement import FAIL, PASS, Requirement
+
+    found = portfolio_command.Portfolio.__new__(portfolio_command.Portfolio)
+    found.args = SimpleNamespace(prices=prices)
+
+    def combination(hub, c_n, product, c_d):
+        status = FAIL if product == "FCR-D down" else PASS
+        return [Requirement("Req. 1b", -7.5 if status == FAIL else -3.4, "%", -5.0, 20.0, "%", status)]
+
+    found.combination = combination
+    capacities = {"FCR-N": 7000.0, "FCR-D up": 6000.0, "FCR-D down": 1000.0}
+    sold, said = found.sold_together(None, capacities)
+    assert [p for p in capacities if sold[p] == 0.0] == dropped
+    assert said.endswith(f"{' and '.join(dropped)} not sold")
+    assert "FCR-N + FCR-D up: Req. 1b passes" in said and "FCR-N + FCR-D down: Req. 1b fails" in said
