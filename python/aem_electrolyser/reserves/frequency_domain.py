@@ -145,6 +145,14 @@ def nyquist(points: Sequence[SinePoint], product: str):
     return w, g0, np.array([p.F for p in points]) * grid_model(product, "stability", wp)
 
 
+def passes_left(g0: np.ndarray, r: float) -> bool:
+    """Whether the curve G0 (by ω) crosses the negative real axis left of −1 − r (encircles)."""
+    im = g0.imag
+    k = np.nonzero(im[:-1] * im[1:] <= 0)[0]
+    re_x = g0.real[k] - im[k] * (g0.real[k + 1] - g0.real[k]) / np.where(im[k + 1] != im[k], im[k + 1] - im[k], 1.0)
+    return bool(np.any(re_x < -1 - r))
+
+
 def required_distance(margin: float = 0.0) -> float:
     """Req. 8's least distance to −1: 0.43·0.95, plus `margin` times the radius 0.43 (a stated
     margin the rules do not ask for, aem-prequalify --margin)."""
@@ -161,10 +169,7 @@ def stability(points: Sequence[SinePoint], product: str, margin: float = 0.0) ->
     _, g0, gp = nyquist(points, product)
     dist = np.abs(g0 + 1)
     r = required_distance(margin)
-    im = g0.imag
-    k = np.nonzero(im[:-1] * im[1:] <= 0)[0]
-    re_x = g0.real[k] - im[k] * (g0.real[k + 1] - g0.real[k]) / np.where(im[k + 1] != im[k], im[k + 1] - im[k], 1.0)
-    left = bool(np.any(re_x < -1 - r))
+    left = passes_left(g0, r)
     res = check(
         f"{product} Req. 8 at the tested periods: Nyquist distance of G0 = F·G to −1",
         float(dist.min()),
@@ -366,10 +371,7 @@ def dense_stability(dense: DenseCurve, product: str, margin: float = 0.0) -> Req
     """Req. 8 on the dense curve: its certified smallest distance ≥ 0.43·0.95 (+ margin·0.43)."""
     r = required_distance(margin)
     g0 = np.array([p.F for p in dense.points]) * grid_model(product, "stability", [p.omega for p in dense.points])
-    im = g0.imag
-    k = np.nonzero(im[:-1] * im[1:] <= 0)[0]
-    re_x = g0.real[k] - im[k] * (g0.real[k + 1] - g0.real[k]) / np.where(im[k + 1] != im[k], im[k + 1] - im[k], 1.0)
-    left = bool(np.any(re_x < -1 - r))
+    left = passes_left(g0, r)
     res = check(
         f"{product} Req. 8 on the dense curve: Nyquist distance of G0 = F·G to −1",
         dense.bound,

@@ -64,6 +64,7 @@ approval; rules that could not be confirmed are reported as unsure (informative)
 """
 
 import argparse
+import contextlib
 import csv
 import multiprocessing
 import os
@@ -116,23 +117,19 @@ def job(fmu, hub, product_name, dt, margin=0.0):
         if _PROGRESS is not None:
             _PROGRESS.put((hub_label(hub), product_name, n, most, capacity, passed))
 
-    try:
+    with job_failures(hub, product_name):
         runner = HubRunner(fmu, hub)
         try:
             result, at, above = assess.largest(runner, BY_NAME[product_name], dt, on_step=step, margin=margin)
             return result, at, above, runner.rated_power
         finally:
             runner.close()
-    except FmuError as e:
-        raise FmuError(f"{product_name}: {e}") from e
-    except Exception as e:  # noqa: BLE001 - any failure crosses the process boundary as one line
-        raise JobError(f"{product_name} on the hub ({hub.describe()}): {cli.one_line(e)}") from e
 
 
 def beats_job(fmu, hub, product_name, dt, margin, floor):
     """Whether the product on the hub passes a bisection step (0.5 % of rated power) above
     `floor` [W] (in a worker process): False without a run where that is beyond the window."""
-    try:
+    with job_failures(hub, product_name):
         runner = HubRunner(fmu, hub)
         try:
             product = BY_NAME[product_name]
@@ -144,6 +141,14 @@ def beats_job(fmu, hub, product_name, dt, margin, floor):
             return not failing(run.results, product.use_reduction)
         finally:
             runner.close()
+
+
+@contextlib.contextmanager
+def job_failures(hub, product_name):
+    """A failure in a worker as one line: an FmuError (the FMU's own message) or a JobError, both
+    with the product's name."""
+    try:
+        yield
     except FmuError as e:
         raise FmuError(f"{product_name}: {e}") from e
     except Exception as e:  # noqa: BLE001 - any failure crosses the process boundary as one line
